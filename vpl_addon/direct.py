@@ -1,0 +1,41 @@
+"""Direct diffuse lighting by next-event estimation: Cycles' ``Diffuse Direct`` pass.
+
+For each G-buffer hit, ``samples`` light samples: a light chosen in proportion to its power (``LightSet``), a point
+or direction on it, one shadow ray. The result is the outgoing radiance of a white Lambertian surface,
+(1/pi) * integral L_i cos(theta) d omega, which is how Cycles defines the pass (light reflected by the diffuse
+BSDF, divided by the diffuse colour).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .sampling import dot
+
+RAYS_PER_BATCH = 1 << 20
+
+
+def diffuse_direct(gbuf, lights, tracer, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """(K,3) direct diffuse radiance per G-buffer hit, averaged over ``samples`` light samples."""
+    k = len(gbuf)
+    out = np.zeros((k, 3))
+    if k == 0 or len(lights) == 0 or samples <= 0:
+        return out
+    p = gbuf.position
+    ng = gbuf.geometric_normal
+    ns = gbuf.shading_normal
+    for lo in range(0, k, max(1, RAYS_PER_BATCH // samples)):
+        hi = min(k, lo + max(1, RAYS_PER_BATCH // samples))
+        idx = np.repeat(np.arange(lo, hi), samples)
+        # stratify the light-selection and position numbers over the samples of one point
+        strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
+        u1, u2 = rng.random(len(idx)), rng.random(len(idx))
+        wi, dist, weight, target_n = lights.sample_incident(p[idx], ns[idx], strata, u1, u2)
+        cos = dot(ns[idx], wi)
+        ok = (cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (weight.max(axis=1) > 0.0) & np.isfinite(weight).all(axis=1)
+        sel = np.nonzero(ok)[0]
+        if len(sel):
+            vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], target_n[sel])
+            contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
+            for c in range(3):
+                out[lo:hi, c] += np.bincount(idx[sel] - lo, weights=contrib[:, c], minlength=hi - lo)
+    return out / samples

@@ -1,0 +1,300 @@
+"""Light sources in Blender's units, and their sampling toward a shading point (next-event estimation).
+
+Units follow Cycles (``scene/light.cpp``, ``kernel/light/*.h``), checked against Cycles' ``Diffuse Direct`` pass
+by ``tests/test_cycles_direct.py``:
+
+* point and spot, power P [W]: radiant intensity I = P / (4 pi) [W/sr]; with radius R the light is a sphere of
+  radiance I / (pi R^2). A spot is a point light cut by a cone, not renormalised to it.
+* area, power P [W] over area A: one-sided Lambertian emitter of radiance P / (pi A).
+* sun, strength S [W/m^2]: irradiance S on a surface facing it, spread over a disc of the given angle.
+* emissive triangles: radiance = Emission Color x Strength, emitted from both sides.
+* world: constant radiance = Background Color x Strength from every direction.
+
+``sample_incident(p, n, u1, u2)`` returns, for shading points p with normals n, unit directions toward the light,
+the distance to the sampled light point (inf for distant lights), and L_e / pdf in solid angle: the estimator of
+the direct diffuse term is then ``le_over_pdf * max(0, n.wi) / pi * V``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .sampling import (concentric_disk, cosine_hemisphere, dot, normalize, sample_cdf, triangle_barycentrics,
+                       uniform_cone)
+
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def smoothstep(x: np.ndarray) -> np.ndarray:
+    x = np.clip(x, 0.0, 1.0)
+    return x * x * (3.0 - 2.0 * x)
+
+
+def _sphere_sample(p, center, radius, u1, u2):
+    """Uniform cone sampling of the sphere seen from p: (wi, dist, solid angle / (pi R^2) or 1/d^2 factor)."""
+    to_c = center - p
+    d2 = dot(to_c, to_c)
+    d = np.sqrt(d2)
+    axis = to_c / np.maximum(d, 1e-300)[:, None]
+    if radius <= 0.0:
+        return axis, d, 1.0 / np.maximum(d2, 1e-300)
+    sin2 = np.minimum(radius * radius / np.maximum(d2, 1e-300), 1.0)
+    one_minus_cos = sin2 / (1.0 + np.sqrt(1.0 - sin2))  # 1 - cos(theta_max) without cancellation
+    wi = uniform_cone(u1, u2, axis, 1.0 - one_minus_cos)
+    # distance to the near side of the sphere along wi (law of cosines)
+    b = dot(wi, to_c)
+    disc = np.maximum(radius * radius - (d2 - b * b), 0.0)
+    dist = np.maximum(b - np.sqrt(disc), 0.0)
+    # L_e / pdf = I / (pi R^2) * 2 pi (1 - cos theta_max)
+    return wi, dist, 2.0 * one_minus_cos / (radius * radius)
+
+
+class Light:
+    """Base of the light types: a name, total power for light selection and incident sampling."""
+
+    name: str
+
+    @property
+    def is_active(self) -> bool:
+        return bool(np.isfinite(self.flux_estimate(1.0)) and self.flux_estimate(1.0) > 0.0)
+
+    def flux_estimate(self, scene_radius: float) -> float:
+        """Approximate emitted power (luminance-weighted), used only to choose between lights."""
+        raise NotImplementedError
+
+    def sample_incident(self, p, n, u1, u2):
+        raise NotImplementedError
+
+
+@dataclass
+class PointLight(Light):
+    name: str
+    position: np.ndarray
+    power: np.ndarray  # RGB watts (colour x energy)
+    radius: float = 0.0
+
+    def __post_init__(self):
+        self.position = np.asarray(self.position, np.float64)
+        self.power = np.maximum(np.nan_to_num(np.asarray(self.power, np.float64), nan=0.0, posinf=0.0), 0.0)
+        self.radius = max(float(np.nan_to_num(self.radius)), 0.0)
+
+    @property
+    def intensity(self) -> np.ndarray:
+        return self.power / (4.0 * np.pi)
+
+    def flux_estimate(self, scene_radius):
+        return float(self.power @ LUMINANCE) if np.isfinite(self.position).all() else 0.0
+
+    def attenuation(self, wi: np.ndarray) -> np.ndarray:
+        return np.ones(len(wi))
+
+    def sample_incident(self, p, n, u1, u2):
+        wi, dist, factor = _sphere_sample(p, self.position, self.radius, u1, u2)
+        return wi, dist, (factor * self.attenuation(wi))[:, None] * self.intensity
+
+
+@dataclass
+class SpotLight(PointLight):
+    direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
+    spot_size: float = np.pi / 4  # full cone angle
+    spot_blend: float = 0.15
+
+    def __post_init__(self):
+        super().__post_init__()
+        self.direction = normalize(np.asarray(self.direction, np.float64))
+
+    def attenuation(self, wi):
+        """Cycles' cone: smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend)), a = angle to the axis."""
+        cos_half = np.cos(0.5 * self.spot_size)
+        cos_a = dot(-wi, self.direction)
+        smooth = (1.0 - cos_half) * self.spot_blend
+        if smooth <= 0.0:
+            return (cos_a > cos_half).astype(np.float64)
+        return smoothstep((cos_a - cos_half) / smooth)
+
+
+@dataclass
+class SunLight(Light):
+    name: str
+    direction: np.ndarray  # direction the light travels (the sun object's -Z)
+    strength: np.ndarray  # RGB W/m^2
+    angle: float = 0.0  # angular diameter of the sun disc
+
+    def __post_init__(self):
+        self.direction = normalize(np.asarray(self.direction, np.float64))
+        self.strength = np.maximum(np.nan_to_num(np.asarray(self.strength, np.float64), nan=0.0, posinf=0.0), 0.0)
+        self.angle = float(np.clip(np.nan_to_num(self.angle), 0.0, np.pi))
+
+    def flux_estimate(self, scene_radius):
+        return float(self.strength @ LUMINANCE) * np.pi * scene_radius ** 2
+
+    def sample_incident(self, p, n, u1, u2):
+        count = len(p)
+        axis = np.broadcast_to(-self.direction, (count, 3))
+        half = 0.5 * self.angle
+        if half <= 1e-6:
+            return axis.copy(), np.full(count, np.inf), np.broadcast_to(self.strength, (count, 3)).copy()
+        one_minus_cos = 2.0 * np.sin(0.5 * half) ** 2
+        wi = uniform_cone(u1, u2, axis, 1.0 - one_minus_cos)
+        # radiance S / (pi sin^2 half) over the cone gives irradiance S at normal incidence
+        scale = 2.0 * one_minus_cos / np.sin(half) ** 2
+        return wi, np.full(count, np.inf), np.broadcast_to(self.strength * scale, (count, 3)).copy()
+
+
+@dataclass
+class AreaLight(Light):
+    name: str
+    center: np.ndarray
+    axis_u: np.ndarray  # full edge (or diameter) vector along the light's local X
+    axis_v: np.ndarray  # full edge (or diameter) vector along local Y
+    normal: np.ndarray  # emitting side: the light object's local -Z
+    power: np.ndarray  # RGB watts
+    round: bool = False  # disk / ellipse instead of square / rectangle
+
+    def __post_init__(self):
+        self.center = np.asarray(self.center, np.float64)
+        self.axis_u = np.asarray(self.axis_u, np.float64)
+        self.axis_v = np.asarray(self.axis_v, np.float64)
+        self.normal = normalize(np.asarray(self.normal, np.float64))
+        self.power = np.maximum(np.nan_to_num(np.asarray(self.power, np.float64), nan=0.0, posinf=0.0), 0.0)
+
+    @property
+    def area(self) -> float:
+        a = float(np.linalg.norm(self.axis_u) * np.linalg.norm(self.axis_v))
+        return a * np.pi / 4.0 if self.round else a
+
+    @property
+    def radiance(self) -> np.ndarray:
+        return self.power / (np.pi * self.area)
+
+    def flux_estimate(self, scene_radius):
+        ok = self.area > 0.0 and np.isfinite(self.center).all() and np.isfinite(self.normal).all()
+        return float(self.power @ LUMINANCE) if ok else 0.0
+
+    def sample_points(self, u1, u2):
+        if self.round:
+            x, y = concentric_disk(u1, u2)
+            x, y = 0.5 * x, 0.5 * y
+        else:
+            x, y = u1 - 0.5, u2 - 0.5
+        return self.center + x[:, None] * self.axis_u + y[:, None] * self.axis_v
+
+    def sample_incident(self, p, n, u1, u2):
+        q = self.sample_points(u1, u2)
+        to_l = q - p
+        d2 = dot(to_l, to_l)
+        dist = np.sqrt(d2)
+        wi = to_l / np.maximum(dist, 1e-300)[:, None]
+        cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
+        factor = cos_l * self.area / np.maximum(d2, 1e-300)
+        return wi, dist, factor[:, None] * self.radiance
+
+
+class EmissiveTriangles(Light):
+    """All triangles whose material emits, as one light: triangle chosen by power, point uniform on it."""
+
+    name = "emissive triangles"
+
+    def __init__(self, triangles, normals, radiance):
+        self.triangles = np.asarray(triangles, np.float64)
+        self.normals = np.asarray(normals, np.float64)
+        self.radiance = np.asarray(radiance, np.float64)
+        e1 = self.triangles[:, 1] - self.triangles[:, 0]
+        e2 = self.triangles[:, 2] - self.triangles[:, 0]
+        self.areas = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+        weight = self.areas * (self.radiance @ LUMINANCE)
+        self.total = float(weight.sum())
+        self.cdf = np.cumsum(weight) / self.total if self.total > 0 else np.ones(len(weight))
+        self.prob = weight / self.total if self.total > 0 else np.zeros(len(weight))
+
+    @staticmethod
+    def from_scene(scene) -> "EmissiveTriangles | None":
+        emission = scene.materials.emission[scene.material]
+        sel = emission.max(axis=1) > 0.0
+        if not sel.any():
+            return None
+        return EmissiveTriangles(scene.triangles[sel], scene.geometric_normals[sel], emission[sel])
+
+    def flux_estimate(self, scene_radius):
+        return 2.0 * np.pi * self.total  # both sides
+
+    def sample_incident(self, p, n, u1, u2):
+        idx = sample_cdf(self.cdf, u1)
+        # reuse u1 within the chosen CDF bin for the point: keeps one random pair per sample
+        lo = np.where(idx > 0, self.cdf[np.maximum(idx - 1, 0)], 0.0)
+        w = np.maximum(self.cdf[idx] - lo, 1e-300)
+        u1r = np.clip((u1 - lo) / w, 0.0, 1.0 - 1e-12)
+        b1, b2 = triangle_barycentrics(u1r, u2)
+        tri = self.triangles[idx]
+        q = tri[:, 0] + b1[:, None] * (tri[:, 1] - tri[:, 0]) + b2[:, None] * (tri[:, 2] - tri[:, 0])
+        to_l = q - p
+        d2 = dot(to_l, to_l)
+        dist = np.sqrt(d2)
+        wi = to_l / np.maximum(dist, 1e-300)[:, None]
+        cos_l = np.abs(dot(wi, self.normals[idx]))
+        pdf_area = self.prob[idx] / np.maximum(self.areas[idx], 1e-300)
+        factor = cos_l / np.maximum(d2 * pdf_area, 1e-300)
+        return wi, dist, factor[:, None] * self.radiance[idx], self.normals[idx]
+
+
+class WorldLight(Light):
+    """Constant background radiance, sampled with the cosine lobe of the receiver."""
+
+    name = "world"
+
+    def __init__(self, radiance):
+        self.radiance = np.asarray(radiance, np.float64)
+
+    def flux_estimate(self, scene_radius):
+        return float(self.radiance @ LUMINANCE) * np.pi * np.pi * scene_radius ** 2
+
+    def sample_incident(self, p, n, u1, u2):
+        wi, cos = cosine_hemisphere(u1, u2, n)
+        factor = np.pi / np.maximum(cos, 1e-12)
+        return wi, np.full(len(p), np.inf), factor[:, None] * self.radiance
+
+
+class LightSet:
+    """Every emitter of a scene with a selection CDF proportional to estimated power."""
+
+    def __init__(self, scene):
+        lo, hi = scene.bounds
+        radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-12)
+        lights: list[Light] = list(scene.lights)
+        emissive = EmissiveTriangles.from_scene(scene)
+        if emissive is not None:
+            lights.append(emissive)
+        if scene.world.max() > 0.0:
+            lights.append(WorldLight(scene.world))
+        flux = np.array([max(l.flux_estimate(radius), 0.0) for l in lights], np.float64)
+        keep = flux > 0.0
+        self.lights = [l for l, k in zip(lights, keep) if k]
+        flux = flux[keep]
+        self.prob = flux / flux.sum() if len(flux) else flux
+        self.cdf = np.cumsum(self.prob)
+        if len(self.cdf):
+            self.cdf[-1] = 1.0
+
+    def __len__(self):
+        return len(self.lights)
+
+    def sample_incident(self, p, n, u_select, u1, u2):
+        """One light sample per point: (wi, dist, L_e / pdf including 1/p_select, normal at the light point).
+
+        The normal is zero where the light point is not on scene geometry (analytic lights, the world)."""
+        count = len(p)
+        wi = np.zeros((count, 3))
+        dist = np.zeros(count)
+        weight = np.zeros((count, 3))
+        target_n = np.zeros((count, 3))
+        choice = sample_cdf(self.cdf, u_select)
+        for index, light in enumerate(self.lights):
+            m = np.nonzero(choice == index)[0]
+            if len(m) == 0:
+                continue
+            out = light.sample_incident(p[m], n[m], u1[m], u2[m])
+            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / self.prob[index]
+            if len(out) == 4:
+                target_n[m] = out[3]
+        return wi, dist, weight, target_n

@@ -1,0 +1,35 @@
+"""Render passes named and defined as Cycles defines them, and the guard that keeps bad numbers out of them.
+
+``Diffuse Direct`` / ``Diffuse Indirect``: light reflected by a white diffuse surface at the primary hit (NOT
+multiplied by albedo); ``Diffuse Color``: the albedo; ``Emit``: emitted radiance; ``Combined``: RGBA with alpha the
+geometry coverage of a transparent film. ``(Diffuse Direct + Diffuse Indirect) * Diffuse Color + Emit`` is the
+diffuse part of ``Combined``.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+COMBINED = "Combined"
+DIFFUSE_DIRECT = "Diffuse Direct"
+DIFFUSE_INDIRECT = "Diffuse Indirect"
+DIFFUSE_COLOR = "Diffuse Color"
+EMIT = "Emit"
+
+CHANNELS = {COMBINED: 4, DIFFUSE_DIRECT: 3, DIFFUSE_INDIRECT: 3, DIFFUSE_COLOR: 3, EMIT: 3}
+ALL = tuple(CHANNELS)
+
+
+class BadOutput(RuntimeError):
+    """A pass holds non-finite or negative values: always a bug of the stage named in the message."""
+
+
+def check(passes: dict[str, np.ndarray], stage: str) -> None:
+    """Count non-finite and negative values in every pass and fail loudly, naming the pass and the stage."""
+    problems = []
+    for name, image in passes.items():
+        nonfinite = int((~np.isfinite(image)).sum())
+        negative = int((image < 0).sum())
+        if nonfinite or negative:
+            problems.append(f"{name}: {nonfinite} non-finite, {negative} negative values")
+    if problems:
+        raise BadOutput(f"{stage} produced bad values ({'; '.join(problems)})")

@@ -1,0 +1,94 @@
+"""Warps from uniform random numbers to the distributions the engine samples, vectorized over rows.
+
+Every function takes arrays of uniform numbers in [0,1) and returns samples together with what is needed for the
+estimator (a pdf or a frame); they are used by the light sampler, the camera and every method.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+def normalize(v: np.ndarray) -> np.ndarray:
+    """Unit vectors along the last axis; zero vectors stay zero instead of becoming NaN."""
+    length = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(length > 0.0, length, 1.0)
+
+
+def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    return np.einsum("...i,...i->...", a, b)
+
+
+def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Tangent vectors (t, b) completing unit normals n to a right-handed frame (Duff et al. 2017)."""
+    sign = np.where(n[..., 2] >= 0.0, 1.0, -1.0)
+    a = -1.0 / (sign + n[..., 2])
+    b = n[..., 0] * n[..., 1] * a
+    t = np.stack([1.0 + sign * n[..., 0] ** 2 * a, sign * b, -sign * n[..., 0]], axis=-1)
+    s = np.stack([b, sign + n[..., 1] ** 2 * a, -n[..., 1]], axis=-1)
+    return t, s
+
+
+def to_world(local: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Rotate directions given in a frame whose z axis is n into world space."""
+    t, s = orthonormal_basis(n)
+    return local[..., :1] * t + local[..., 1:2] * s + local[..., 2:3] * n
+
+
+def cosine_hemisphere(u1: np.ndarray, u2: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Directions with pdf cos(theta)/pi about n (Malley's method); returns (directions, cos theta)."""
+    r = np.sqrt(u1)
+    phi = 2.0 * np.pi * u2
+    z = np.sqrt(np.maximum(0.0, 1.0 - u1))
+    local = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+    return to_world(local, n), z
+
+
+def uniform_cone(u1: np.ndarray, u2: np.ndarray, axis: np.ndarray, cos_max: np.ndarray) -> np.ndarray:
+    """Directions uniform in solid angle within the cone of half-angle acos(cos_max) about axis.
+
+    The pdf is 1 / (2 pi (1 - cos_max)).
+    """
+    cos_t = 1.0 - u1 * (1.0 - cos_max)
+    sin_t = np.sqrt(np.maximum(0.0, 1.0 - cos_t * cos_t))
+    phi = 2.0 * np.pi * u2
+    local = np.stack([sin_t * np.cos(phi), sin_t * np.sin(phi), cos_t], axis=-1)
+    return to_world(local, axis)
+
+
+def concentric_disk(u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform points on the unit disk by Shirley and Chiu's concentric map (keeps stratification)."""
+    a = 2.0 * u1 - 1.0
+    b = 2.0 * u2 - 1.0
+    first = np.abs(a) > np.abs(b)
+    r = np.where(first, a, b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = np.where(first, (np.pi / 4.0) * (b / a), np.pi / 2.0 - (np.pi / 4.0) * (a / b))
+    phi = np.nan_to_num(phi)
+    return r * np.cos(phi), r * np.sin(phi)
+
+
+def triangle_barycentrics(u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Uniform barycentrics (b1, b2) on a triangle (square-root parametrisation)."""
+    su = np.sqrt(u1)
+    return su * (1.0 - u2), su * u2
+
+
+def sample_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
+    """Indices drawn from a discrete distribution given by its normalised, non-decreasing CDF."""
+    return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
+
+
+def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``per_cell`` jittered 2D points for each of ``count`` cells (pixels), shape (count, per_cell).
+
+    With a square ``per_cell`` the points are one per stratum of a sqrt x sqrt grid (jittered sampling);
+    otherwise they are independent uniform points.
+    """
+    k = int(round(np.sqrt(per_cell)))
+    if k * k != per_cell:
+        return rng.random((count, per_cell)), rng.random((count, per_cell))
+    grid = np.arange(per_cell)
+    ix, iy = grid % k, grid // k
+    u = (ix[None, :] + rng.random((count, per_cell))) / k
+    v = (iy[None, :] + rng.random((count, per_cell))) / k
+    return u, v

@@ -1,0 +1,128 @@
+"""The one ray tracer: embree's BVH queried in large batches, split over all cores.
+
+``embreex`` releases the GIL inside ``run``, so chunks of a batch run concurrently on a thread pool. Origins are
+pushed off the surface they leave by ``offset_origin`` (Waechter and Binder, "A Fast and Robust Method for Avoiding
+Self-Intersection", Ray Tracing Gems ch. 6): a few float ULPs along the geometric normal, with the absolute fallback
+near zero scaled to the scene's extent so tiny and huge scenes behave alike.
+"""
+from __future__ import annotations
+
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+
+import numpy as np
+
+CHUNK = 1 << 16  # rays per embree call: large enough to amortise Python, small enough to share across threads
+FAR = 1e30
+
+
+@dataclass
+class Hits:
+    prim: np.ndarray  # (N,) int32 triangle index, -1 for a miss
+    t: np.ndarray  # (N,) float64 distance along the (unit) direction, inf for a miss
+    u: np.ndarray  # (N,) barycentric weight of corner 1
+    v: np.ndarray  # (N,) barycentric weight of corner 2
+
+    @property
+    def hit(self) -> np.ndarray:
+        return self.prim >= 0
+
+
+class Tracer:
+    """Closest-hit and occlusion queries against the scene's triangles."""
+
+    def __init__(self, triangles: np.ndarray, threads: int | None = None):
+        tri = np.ascontiguousarray(triangles, dtype=np.float32).reshape(-1, 3, 3)
+        self.triangle_count = len(tri)
+        self.threads = max(1, threads or os.cpu_count() or 1)
+        self.rays_traced = 0
+        extent = float(np.abs(tri).max()) if len(tri) else 1.0
+        self.extent = extent if extent > 0.0 else 1.0
+        self._scene = None
+        if len(tri):
+            from embreex import rtcore_scene
+            from embreex.mesh_construction import TriangleMesh
+            self._scene = rtcore_scene.EmbreeScene()
+            self._mesh = TriangleMesh(self._scene, tri)
+        self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
+
+    def close(self):
+        if self._pool is not None:
+            self._pool.shutdown()
+            self._pool = None
+
+    def _run(self, origins, dirs, tfar, query):
+        n = len(origins)
+        self.rays_traced += n
+        o = np.ascontiguousarray(origins, dtype=np.float32)
+        d = np.ascontiguousarray(dirs, dtype=np.float32)
+        tf = np.ascontiguousarray(np.minimum(tfar, FAR), dtype=np.float32)
+        output = 1 if query == "INTERSECT" else None
+
+        def job(lo):
+            hi = min(lo + CHUNK, n)
+            return self._scene.run(o[lo:hi], d[lo:hi], dists=tf[lo:hi].copy(), query=query, output=output)
+
+        starts = range(0, n, CHUNK)
+        parts = list(self._pool.map(job, starts)) if self._pool and n > CHUNK else [job(s) for s in starts]
+        return parts
+
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
+        """Closest hits of rays with unit directions, up to distance tmax (scalar or per ray)."""
+        n = len(origins)
+        tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,))
+        if self._scene is None or n == 0:
+            return Hits(np.full(n, -1, np.int32), np.full(n, np.inf), np.zeros(n), np.zeros(n))
+        parts = self._run(origins, dirs, tmax, "INTERSECT")
+        prim = np.concatenate([p["primID"] for p in parts]).astype(np.int32)
+        t = np.concatenate([p["tfar"] for p in parts]).astype(np.float64)
+        u = np.concatenate([p["u"] for p in parts]).astype(np.float64)
+        v = np.concatenate([p["v"] for p in parts]).astype(np.float64)
+        miss = prim < 0
+        t[miss] = np.inf
+        u[miss] = 0.0
+        v[miss] = 0.0
+        return Hits(prim, t, u, v)
+
+    def occluded(self, origins: np.ndarray, dirs: np.ndarray, tmax) -> np.ndarray:
+        """True where something lies along the ray before tmax."""
+        n = len(origins)
+        if self._scene is None or n == 0:
+            return np.zeros(n, bool)
+        tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,))
+        parts = self._run(origins, dirs, tmax, "OCCLUDED")
+        return np.concatenate(parts) >= 0
+
+    def offset_origin(self, p: np.ndarray, n: np.ndarray) -> np.ndarray:
+        """Move points p off their surface along the (geometric) normal n, toward the side n points to."""
+        p = np.asarray(p, np.float32)
+        n = np.asarray(n, np.float32)
+        of_i = (256.0 * n).astype(np.int32)
+        p_i = p.view(np.int32) + np.where(p < 0.0, -of_i, of_i)
+        p_ulp = p_i.view(np.float32)
+        near_zero = np.abs(p) < self.extent / 32.0
+        return np.where(near_zero, p + (self.extent / 65536.0) * n, p_ulp).astype(np.float64)
+
+    def visible(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
+                target_normal: np.ndarray | None = None) -> np.ndarray:
+        """Visibility from surface points p (geometric normal n) along unit dirs to a point at distance dist.
+
+        The origin is offset to the side of n that dirs leaves through; when the target lies on a surface too,
+        its normal shortens the segment by the same robust margin so the target does not occlude itself (a zero
+        target normal means the target is not on geometry).
+        """
+        side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
+        origin = self.offset_origin(p, side)
+        target = p + dirs * np.where(np.isfinite(dist), dist, 0.0)[:, None]
+        if target_normal is not None:
+            t_side = np.where((np.einsum("ij,ij->i", target_normal, dirs) <= 0.0)[:, None],
+                              target_normal, -target_normal)
+            target = self.offset_origin(target, t_side)
+        finite = np.isfinite(dist)
+        seg = target - origin
+        seg_len = np.linalg.norm(seg, axis=1)
+        new_dirs = np.where(finite[:, None] & (seg_len[:, None] > 0), seg / np.maximum(seg_len, 1e-300)[:, None],
+                            dirs)
+        tmax = np.where(finite, seg_len * (1.0 - 1e-5), FAR)
+        return ~self.occluded(origin, new_dirs, tmax)
