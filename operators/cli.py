@@ -1,0 +1,151 @@
+"""``python -m vpl_addon COMMAND``: render, reference and compare from the command line.
+
+Every failure the user can cause (missing file, no camera, unwritable output, ...) ends as one line
+``vpl_addon: error: ...`` on stderr and a non-zero exit status, never a traceback.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+EXIT_USAGE = 2
+EXIT_FAILED = 1
+
+
+class UserError(Exception):
+    """A problem with the input that the message explains."""
+
+
+def _open_blend(path: str):
+    import bpy
+    if not os.path.isfile(path):
+        raise UserError(f"no such file: {path}")
+    try:
+        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
+    except RuntimeError as err:
+        raise UserError(f"cannot open {path}: {str(err).strip().splitlines()[-1]}") from None
+    return bpy.context.scene
+
+
+def _ensure_registered():
+    import bpy
+    if not hasattr(bpy.types.Scene, "vpl_gi"):
+        from .. import register
+        register()
+
+
+def cmd_render(args) -> int:
+    from ..vpl_addon import passes as P
+    from . import engine
+    from .extract import ExtractionError, camera_of
+    from .output import check_target, render_to
+
+    out = check_target(args.output, args.overwrite)
+    _ensure_registered()
+    scene = _open_blend(args.scene)
+    try:
+        camera_of(scene)
+    except ExtractionError as err:
+        raise UserError(str(err)) from None
+    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+    settings = scene.vpl_gi
+    for flag in ("samples", "light_samples", "seed"):
+        if getattr(args, flag) is not None:
+            setattr(settings, flag, getattr(args, flag))
+    for layer in scene.view_layers:
+        for name, toggle, _, _ in engine.PASS_TOGGLES:
+            if name != P.DIFFUSE_INDIRECT:
+                setattr(layer, toggle, True)
+    if args.frame is not None:
+        scene.frame_set(args.frame)
+    t0 = time.perf_counter()
+    render_to(scene, out)
+    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
+    if errors:
+        os.unlink(out)
+        raise UserError(errors[0])
+    for level, message in engine.LAST_REPORTS:
+        if level == "WARNING":
+            print(f"warning: {message}", file=sys.stderr)
+    stats = engine.LAST_STATS
+    stages = ", ".join(f"{k} {v:.2f} s" for k, v in stats.get("seconds", {}).items())
+    print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, "
+          f"{time.perf_counter() - t0:.2f} s ({stages}), {stats.get('rays', 0) / 1e6:.1f} M rays")
+    return 0
+
+
+def cmd_reference(args) -> int:
+    from .output import check_target
+    from .reference import make_reference
+
+    out = check_target(args.output, args.overwrite)
+    if not os.path.isfile(args.scene):
+        raise UserError(f"no such file: {args.scene}")
+    _open_blend(args.scene)
+    info = make_reference(args.scene, out, args.samples, args.frame, args.cache_dir)
+    how = "from cache" if info.get("cached") else f"{info['seconds']:.1f} s"
+    print(f"wrote {out}: Cycles {args.samples} spp ({how}), hash {info['hash'][:12]}")
+    return 0
+
+
+def cmd_compare(args) -> int:
+    from ..vpl_addon.compare import compare_files
+    for path in (args.image, args.reference):
+        if not os.path.isfile(path):
+            raise UserError(f"no such file: {path}")
+    names = [n.strip() for n in args.passes.split(",")] if args.passes else None
+    try:
+        result = compare_files(args.image, args.reference, names, args.heatmap)
+    except ValueError as err:
+        raise UserError(str(err)) from None
+    print(json.dumps(result, indent=2))
+    return 0
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m vpl_addon",
+                                description="VPL GI: indirect light with virtual lights, judged against Cycles.")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("render", help="render a .blend with the VPL GI engine to a multilayer EXR")
+    r.add_argument("scene", help="the .blend file")
+    r.add_argument("-o", "--output", required=True, help="multilayer EXR to write")
+    r.add_argument("--frame", type=int, help="frame to render (default: the scene's current frame)")
+    r.add_argument("--samples", type=int, help="camera samples per pixel")
+    r.add_argument("--light-samples", type=int, help="shadow rays per camera sample for direct light")
+    r.add_argument("--seed", type=int, help="random seed")
+    r.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
+    r.set_defaults(run=cmd_render)
+    ref = sub.add_parser("reference", help="render the Cycles reference of a .blend (cached by scene hash)")
+    ref.add_argument("scene")
+    ref.add_argument("-o", "--output", required=True)
+    ref.add_argument("--samples", type=int, default=4096, help="Cycles samples per pixel (default 4096)")
+    ref.add_argument("--frame", type=int)
+    ref.add_argument("--cache-dir", default=os.path.join(os.path.expanduser("~"), ".cache", "vpl_gi"),
+                     help="where converged references are kept by hash")
+    ref.add_argument("--overwrite", action="store_true")
+    ref.set_defaults(run=cmd_reference)
+    c = sub.add_parser("compare", help="error of every common pass against a reference, as JSON")
+    c.add_argument("image")
+    c.add_argument("reference")
+    c.add_argument("--heatmap", help="PNG of the per-pixel relative error")
+    c.add_argument("--passes", help="comma-separated pass names (default: all in common)")
+    c.set_defaults(run=cmd_compare)
+    return p
+
+
+def main(argv=None) -> int:
+    args = parser().parse_args(argv)
+    try:
+        return args.run(args)
+    except UserError as err:
+        print(f"vpl_addon: error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    except (FileExistsError, PermissionError, IsADirectoryError) as err:
+        print(f"vpl_addon: error: {err}", file=sys.stderr)
+        return EXIT_USAGE
+    except Exception as err:  # the last line of defence: one line, never a traceback
+        print(f"vpl_addon: error: {type(err).__name__}: {err}", file=sys.stderr)
+        return EXIT_FAILED

@@ -1,0 +1,117 @@
+"""The "VPL GI" RenderEngine: F12, ``blender -b ... -f N`` and the CLI all render through it.
+
+Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color
+and Emission when enabled), so Blender writes them into multilayer EXRs and the compositor sees them by name.
+"""
+from __future__ import annotations
+
+import time
+
+import bpy
+import numpy as np
+
+from ..vpl_addon import passes as P
+from ..vpl_addon.render import Cancelled, render
+from .extract import ExtractionError, extract
+
+# (pass name, view layer toggle, channels, channel ids)
+PASS_TOGGLES = (
+    (P.DIFFUSE_DIRECT, "use_pass_diffuse_direct", 3, "RGB"),
+    (P.DIFFUSE_INDIRECT, "use_pass_diffuse_indirect", 3, "RGB"),
+    (P.DIFFUSE_COLOR, "use_pass_diffuse_color", 3, "RGB"),
+    (P.EMIT, "use_pass_emit", 3, "RGB"),
+)
+
+# Messages of the last render, for callers that cannot see the UI (the command line, tests).
+LAST_REPORTS: list[tuple[str, str]] = []
+LAST_STATS: dict = {}
+
+
+def requested_passes(view_layer) -> tuple[str, ...]:
+    wanted = [P.COMBINED] + [name for name, toggle, _, _ in PASS_TOGGLES if getattr(view_layer, toggle, False)]
+    return tuple(name for name in wanted if name in P.CHANNELS and name != P.DIFFUSE_INDIRECT)
+
+
+class VPLGIRenderEngine(bpy.types.RenderEngine):
+    bl_idname = "VPL_GI"
+    bl_label = "VPL GI"
+    bl_use_preview = False
+    bl_use_postprocess = True
+
+    def _report(self, level: str, message: str):
+        LAST_REPORTS.append((level, message))
+        self.report({level}, message)
+        if level == "ERROR":
+            self.error_set(message)
+
+    def render(self, depsgraph):
+        LAST_REPORTS.clear()
+        LAST_STATS.clear()
+        scene = depsgraph.scene
+        view_layer = depsgraph.view_layer
+        t0 = time.perf_counter()
+        try:
+            built, warnings = extract(depsgraph)
+        except ExtractionError as err:
+            self._report("ERROR", str(err))
+            return
+        t_extract = time.perf_counter() - t0
+        for warning in warnings:
+            self._report("WARNING", warning)
+        passes = requested_passes(view_layer)
+        settings = scene.vpl_gi.render_settings(passes)
+
+        def progress(fraction, text):
+            self.update_progress(fraction)
+            self.update_stats("VPL GI", f"{text} {fraction * 100:.0f}%")
+            return not self.test_break()
+
+        try:
+            result = render(built, settings, progress)
+        except Cancelled:
+            self._report("INFO", "render cancelled")
+            return
+        for warning in result.warnings:
+            self._report("WARNING", warning)
+        LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
+                          width=built.camera.width, height=built.camera.height, samples=settings.samples)
+        self._write(built.camera.width, built.camera.height, view_layer.name, result.passes)
+
+    def _write(self, width, height, layer_name, images):
+        for name in images:
+            if name != P.COMBINED:
+                self.add_pass(name, P.CHANNELS[name], "RGBA"[:P.CHANNELS[name]], layer=layer_name)
+        out = self.begin_result(0, 0, width, height, layer=layer_name)
+        layer = out.layers[0]
+        for name, image in images.items():
+            render_pass = layer.passes.find_by_name(name, "")
+            if render_pass is None:
+                continue
+            # engine images have row 0 at the top, Blender's buffers at the bottom
+            render_pass.rect.foreach_set(np.ascontiguousarray(image[::-1]).reshape(-1))
+        self.end_result(out)
+
+    def update_render_passes(self, scene=None, renderlayer=None):
+        self.register_pass(scene, renderlayer, P.COMBINED, 4, "RGBA", "COLOR")
+        for name, toggle, channels, ids in PASS_TOGGLES:
+            if name in requested_passes(renderlayer):
+                self.register_pass(scene, renderlayer, name, channels, ids, "COLOR")
+
+
+def get_panels():
+    """Cycles/Eevee panels that also make sense for this engine (output, format, color management...)."""
+    exclude = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
+    return [p for p in bpy.types.Panel.__subclasses__()
+            if "BLENDER_RENDER" in getattr(p, "COMPAT_ENGINES", set()) and p.__name__ not in exclude]
+
+
+def register():
+    bpy.utils.register_class(VPLGIRenderEngine)
+    for panel in get_panels():
+        panel.COMPAT_ENGINES.add("VPL_GI")
+
+
+def unregister():
+    for panel in get_panels():
+        panel.COMPAT_ENGINES.discard("VPL_GI")
+    bpy.utils.unregister_class(VPLGIRenderEngine)

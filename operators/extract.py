@@ -1,0 +1,265 @@
+"""Blender scene -> engine ``Scene``: the one place that reads geometry, materials, lights, world and camera.
+
+Reads the evaluated depsgraph, so modifiers, instances, curves and text arrive as triangles; objects that are
+hidden from render are not in a render depsgraph and are skipped. Bulk data goes through ``foreach_get`` into
+numpy. Anything the engine cannot represent is approximated with one warning that names the datablock.
+"""
+from __future__ import annotations
+
+import math
+
+import bpy
+import numpy as np
+
+from ..vpl_addon.camera import Camera, view_window
+from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
+from ..vpl_addon.scene import Materials, Scene
+
+GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+
+
+class ExtractionError(RuntimeError):
+    """The scene cannot be rendered; the message names the object or setting at fault."""
+
+
+def _array(collection, attr, width, dtype=np.float32):
+    out = np.empty(len(collection) * width, dtype)
+    collection.foreach_get(attr, out)
+    return out.reshape(-1, width) if width > 1 else out
+
+
+def _matrix(m) -> np.ndarray:
+    return np.array([list(row) for row in m], np.float64)
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+class _MaterialTable:
+    """Principled BSDF parameters of every material met, in first-seen order; row 0 is the fallback grey."""
+
+    def __init__(self, warnings: list[str]):
+        self.rows: list[dict] = []
+        self.index: dict[str, int] = {}
+        self.textures: list[np.ndarray] = []
+        self.texture_index: dict[str, int] = {}
+        self.warnings = warnings
+
+    def id_of(self, material) -> int:
+        if material is None:
+            return 0
+        key = material.name_full
+        if key not in self.index:
+            self.rows.append(self._read(material))
+            self.index[key] = len(self.rows)
+        return self.index[key]
+
+    def _texture(self, image, material) -> int:
+        key = image.name_full
+        if key in self.texture_index:
+            return self.texture_index[key]
+        w, h = image.size
+        if not image.has_data and w * h == 0:
+            try:
+                image.pixels[0]  # loads the file if it exists
+            except (IndexError, RuntimeError):
+                pass
+            w, h = image.size
+        if w * h == 0:
+            self.warnings.append(f"material {material.name!r}: image {image.name!r} could not be loaded "
+                                 f"({image.filepath or 'no file'}); using the Base Color value instead")
+            self.texture_index[key] = -1
+            return -1
+        px = np.empty(w * h * image.channels, np.float32)
+        image.pixels.foreach_get(px)
+        px = px.reshape(h, w, image.channels)
+        rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
+        if not image.is_float and image.colorspace_settings.name == "sRGB":
+            rgb = srgb_to_linear(rgb)
+        self.textures.append(np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0))
+        self.texture_index[key] = len(self.textures) - 1
+        return self.texture_index[key]
+
+    def _read(self, material) -> dict:
+        row = {"name": material.name}
+        surface = _surface_node(material)
+        if surface is None:
+            row["base_color"] = tuple(material.diffuse_color)[:3]
+            row["roughness"] = material.roughness
+            row["metallic"] = material.metallic
+            return row
+        if surface.type == "BSDF_PRINCIPLED":
+            inputs = surface.inputs
+            row["base_color"] = tuple(inputs["Base Color"].default_value)[:3]
+            row["roughness"] = inputs["Roughness"].default_value
+            row["metallic"] = inputs["Metallic"].default_value
+            strength = inputs["Emission Strength"].default_value
+            row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
+            link = inputs["Base Color"].links[0] if inputs["Base Color"].is_linked else None
+            if link is not None:
+                if link.from_node.type == "TEX_IMAGE" and link.from_node.image is not None:
+                    row["texture"] = self._texture(link.from_node.image, material)
+                else:
+                    self.warnings.append(f"material {material.name!r}: Base Color input from a "
+                                         f"{link.from_node.bl_label!r} node is not supported; using its value")
+            for name in ("Roughness", "Metallic", "Emission Color", "Emission Strength"):
+                if inputs[name].is_linked:
+                    self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; "
+                                         f"using its value")
+            return row
+        if surface.type == "EMISSION":
+            strength = surface.inputs["Strength"].default_value
+            row["base_color"] = (0.0, 0.0, 0.0)
+            row["emission"] = tuple(c * strength for c in surface.inputs["Color"].default_value[:3])
+            return row
+        if surface.type == "BSDF_DIFFUSE":
+            row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
+            row["roughness"] = 1.0
+            return row
+        self.warnings.append(f"material {material.name!r}: surface shader {surface.bl_label!r} is not supported; "
+                             f"rendered as grey diffuse")
+        return {"name": material.name}
+
+    def build(self) -> Materials:
+        return Materials.make(self.rows)
+
+
+def _surface_node(material):
+    """The shader node feeding the active material output's Surface, or None without nodes."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
+    active = [n for n in outputs if n.is_active_output] or outputs
+    if not active or not active[0].inputs["Surface"].is_linked:
+        return None
+    return active[0].inputs["Surface"].links[0].from_node
+
+
+def _mesh_arrays(obj, matrix, materials: _MaterialTable, object_index: int):
+    mesh = obj.to_mesh()
+    try:
+        mesh.calc_loop_triangles()
+        tris = mesh.loop_triangles
+        if len(tris) == 0:
+            return None
+        co = _array(mesh.vertices, "co", 3).astype(np.float64)
+        vidx = _array(tris, "vertices", 3, np.int32)
+        lidx = _array(tris, "loops", 3, np.int32)
+        mat_local = _array(tris, "material_index", 1, np.int32)
+        m = _matrix(matrix)
+        world = co @ m[:3, :3].T + m[:3, 3]
+        normal_matrix = np.linalg.inv(m[:3, :3]).T if abs(np.linalg.det(m[:3, :3])) > 1e-300 else np.eye(3)
+        corner_n = _array(mesh.corner_normals, "vector", 3).astype(np.float64) @ normal_matrix.T
+        triangles = world[vidx]
+        normals = corner_n[lidx]
+        if np.linalg.det(m[:3, :3]) < 0:  # mirrored: keep counter-clockwise = front
+            triangles = triangles[:, ::-1]
+            normals = normals[:, ::-1]
+            lidx = lidx[:, ::-1]
+        if mesh.uv_layers.active is not None:
+            uvs = _array(mesh.uv_layers.active.data, "uv", 2)[lidx]
+        else:
+            uvs = np.zeros((len(tris), 3, 2), np.float32)
+        slots = [materials.id_of(s.material) for s in obj.material_slots] or [0]
+        slot_ids = np.array(slots, np.int32)
+        mat = slot_ids[np.clip(mat_local, 0, len(slot_ids) - 1)]
+        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32)
+    finally:
+        obj.to_mesh_clear()
+
+
+def _light(obj, matrix, warnings):
+    data = obj.data
+    m = _matrix(matrix)
+    pos = m[:3, 3]
+    down = -m[:3, 2]
+    color = np.array(data.color[:3], np.float64)
+    name = obj.name
+    if data.type == "POINT":
+        return PointLight(name, pos, color * data.energy, radius=data.shadow_soft_size)
+    if data.type == "SPOT":
+        return SpotLight(name, pos, color * data.energy, radius=data.shadow_soft_size, direction=down,
+                         spot_size=data.spot_size, spot_blend=data.spot_blend)
+    if data.type == "SUN":
+        return SunLight(name, down, color * data.energy, angle=data.angle)
+    if data.type == "AREA":
+        if getattr(data, "spread", math.pi) < math.pi - 1e-4:
+            warnings.append(f"light {name!r}: spread below 180 degrees is not supported; rendered as 180")
+        size_v = data.size_y if data.shape in {"RECTANGLE", "ELLIPSE"} else data.size
+        return AreaLight(name, pos, m[:3, 0] * data.size, m[:3, 1] * size_v, down, color * data.energy,
+                         round=data.shape in {"DISK", "ELLIPSE"})
+    warnings.append(f"light {name!r}: type {data.type} is not supported; skipped")
+    return None
+
+
+def _world(scene, warnings) -> np.ndarray:
+    world = scene.world
+    if world is None:
+        return np.zeros(3)
+    tree = world.node_tree
+    if tree is None:
+        return np.array(world.color[:3], np.float64)
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD"]
+    active = [n for n in outputs if n.is_active_output] or outputs
+    if not active or not active[0].inputs["Surface"].is_linked:
+        return np.zeros(3)
+    node = active[0].inputs["Surface"].links[0].from_node
+    if node.type != "BACKGROUND":
+        warnings.append(f"world {world.name!r}: surface {node.bl_label!r} is not supported; world is black")
+        return np.zeros(3)
+    if node.inputs["Color"].is_linked or node.inputs["Strength"].is_linked:
+        warnings.append(f"world {world.name!r}: textured background is not supported; using the constant colour")
+    return np.array(node.inputs["Color"].default_value[:3], np.float64) * node.inputs["Strength"].default_value
+
+
+def camera_of(scene) -> Camera:
+    cam_obj = scene.camera
+    if cam_obj is None:
+        raise ExtractionError(f"scene {scene.name!r} has no active camera (set Scene > Camera)")
+    cam = cam_obj.data
+    if cam.type not in {"PERSP", "ORTHO"}:
+        raise ExtractionError(f"camera {cam_obj.name!r}: type {cam.type} is not supported (use Perspective or "
+                              f"Orthographic)")
+    r = scene.render
+    width = max(1, int(r.resolution_x * r.resolution_percentage / 100))
+    height = max(1, int(r.resolution_y * r.resolution_percentage / 100))
+    window = view_window(width, height, orthographic=cam.type == "ORTHO", lens=cam.lens,
+                         sensor_width=cam.sensor_width, sensor_height=cam.sensor_height, sensor_fit=cam.sensor_fit,
+                         ortho_scale=cam.ortho_scale, shift_x=cam.shift_x, shift_y=cam.shift_y,
+                         pixel_aspect=r.pixel_aspect_y / r.pixel_aspect_x)
+    cycles = getattr(scene, "cycles", None)  # the pixel filter is Cycles' setting, so both engines match
+    return Camera(_matrix(cam_obj.matrix_world), width, height, window, orthographic=cam.type == "ORTHO",
+                  clip_start=cam.clip_start, clip_end=cam.clip_end,
+                  filter_type=getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"),
+                  filter_width=getattr(cycles, "filter_width", r.filter_size))
+
+
+def extract(depsgraph) -> tuple[Scene, list[str]]:
+    """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way."""
+    scene = depsgraph.scene_eval
+    warnings: list[str] = []
+    camera = camera_of(scene)
+    materials = _MaterialTable(warnings)
+    parts, lights, names = [], [], []
+    for inst in depsgraph.object_instances:
+        obj = inst.object
+        if obj.type == "LIGHT":
+            light = _light(obj, inst.matrix_world, warnings)
+            if light is not None:
+                lights.append(light)
+        elif obj.type in GEOMETRY_TYPES:
+            arrays = _mesh_arrays(obj, inst.matrix_world, materials, len(names))
+            names.append(obj.name)
+            if arrays is not None:
+                parts.append(arrays)
+    if parts:
+        triangles, normals, uvs, material, object_id = (np.concatenate(a) for a in zip(*parts))
+    else:
+        triangles = normals = np.zeros((0, 3, 3))
+        uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
+    built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
+                        object_id=object_id, object_names=names or ["none"], world=_world(scene, warnings),
+                        textures=materials.textures)
+    return built, warnings

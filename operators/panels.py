@@ -1,0 +1,54 @@
+"""Render-properties panels of the VPL GI engine: its settings and the passes it can write."""
+from __future__ import annotations
+
+import bpy
+
+from .engine import PASS_TOGGLES, VPLGIRenderEngine
+
+
+class _VPLGIPanel:
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    COMPAT_ENGINES = {VPLGIRenderEngine.bl_idname}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+
+class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
+    bl_label = "VPL GI"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.vpl_gi
+        layout.prop(settings, "samples")
+        layout.prop(settings, "light_samples")
+        layout.prop(settings, "seed")
+
+
+class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
+    bl_label = "Passes"
+    bl_context = "view_layer"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        col = layout.column(heading="Diffuse", align=True)
+        for name, toggle, _, _ in PASS_TOGGLES:
+            col.prop(context.view_layer, toggle, text=name.replace("Diffuse ", ""))
+
+
+CLASSES = (RENDER_PT_vpl_gi, VIEWLAYER_PT_vpl_gi_passes)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

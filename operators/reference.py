@@ -1,0 +1,92 @@
+"""Cycles as the judge: converged references rendered with the settings of DESIGN.md, cached by a hash.
+
+The hash covers the .blend file's bytes, the frame, the sample count and Blender's version, and is stored in the
+reference EXR's header (attribute ``vplReference``), so a reference made from an older scene is detected as stale.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import time
+
+import bpy
+
+from ..vpl_addon import passes as P
+from ..vpl_addon.exr import read_passes, write_passes
+from .output import render_to
+
+HEADER_KEY = "vplReference"
+KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT)
+SEED = 0
+
+
+def reference_hash(blend_path: str, samples: int, frame: int | None) -> str:
+    digest = hashlib.sha256()
+    with open(blend_path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    settings = {"samples": samples, "frame": frame, "seed": SEED, "blender": bpy.app.version_string,
+                "passes": KEPT_PASSES}
+    digest.update(json.dumps(settings, sort_keys=True).encode())
+    return digest.hexdigest()
+
+
+def stored_info(path: str) -> dict:
+    """The ``vplReference`` record of a reference EXR ({} if it has none)."""
+    _, header = read_passes(path)
+    raw = header.get(HEADER_KEY)
+    return json.loads(raw) if raw else {}
+
+
+def configure_cycles(scene, samples: int) -> None:
+    """Cycles on the CPU, unbiased and repeatable: no denoising, clamping, glossy filter, light threshold or
+    adaptive sampling; fixed seed; transparent film (alpha = coverage); every diffuse pass on."""
+    scene.render.engine = "CYCLES"
+    c = scene.cycles
+    c.device = "CPU"
+    c.samples = samples
+    c.use_denoising = False
+    c.use_adaptive_sampling = False
+    c.sample_clamp_direct = 0.0
+    c.sample_clamp_indirect = 0.0
+    c.blur_glossy = 0.0
+    c.light_sampling_threshold = 0.0
+    c.seed = SEED
+    c.use_animated_seed = False
+    scene.render.film_transparent = True
+    for layer in scene.view_layers:
+        for toggle in ("use_pass_diffuse_direct", "use_pass_diffuse_indirect", "use_pass_diffuse_color",
+                       "use_pass_emit"):
+            setattr(layer, toggle, True)
+
+
+def make_reference(blend_path: str, out_path: str, samples: int, frame: int | None = None,
+                   cache_dir: str | None = None) -> dict:
+    """Render (or fetch from the cache) the Cycles reference of ``blend_path``; returns its record."""
+    digest = reference_hash(blend_path, samples, frame)
+    cached = os.path.join(cache_dir, f"{digest}.exr") if cache_dir else None
+    if cached and os.path.exists(cached) and stored_info(cached).get("hash") == digest:
+        shutil.copyfile(cached, out_path)
+        return {**stored_info(out_path), "cached": True}
+    bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
+    scene = bpy.context.scene
+    if frame is not None:
+        scene.frame_set(frame)
+    configure_cycles(scene, samples)
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory(dir=os.path.dirname(os.path.abspath(out_path))) as tmp:
+        raw = os.path.join(tmp, "cycles.exr")
+        render_to(scene, raw)
+        seconds = time.perf_counter() - t0
+        images, _ = read_passes(raw)
+    info = {"hash": digest, "samples": samples, "frame": frame, "seconds": round(seconds, 2),
+            "blend": os.path.basename(blend_path), "blender": bpy.app.version_string}
+    kept = {name: images[name] for name in KEPT_PASSES if name in images}
+    write_passes(out_path, kept, {HEADER_KEY: json.dumps(info, sort_keys=True)}, half=True)
+    if cached:
+        os.makedirs(cache_dir, exist_ok=True)
+        shutil.copyfile(out_path, cached)
+    return {**info, "cached": False}

@@ -1,0 +1,54 @@
+"""Error of an image against a reference, over the pixels the reference covers fully.
+
+rMAE as in Li et al. (Virtual Blue Noise Lighting, sec. 5): |I - I_ref| / (I_ref + 0.01 mean(I_ref)), averaged
+over masked pixels and channels; relMSE the squared analogue; RMSE after Reinhard tone mapping x / (1 + x);
+mean ratio = mean(I) / mean(I_ref). The mask keeps pixels whose reference alpha is at least 0.999: silhouette
+pixels have random coverage and would dominate the error of a pass that Cycles divides by a colour.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+FULL_COVERAGE = 0.999
+
+
+def coverage_mask(reference_alpha: np.ndarray | None, shape: tuple[int, int]) -> np.ndarray:
+    if reference_alpha is None:
+        return np.ones(shape, bool)
+    return np.asarray(reference_alpha).reshape(shape) >= FULL_COVERAGE
+
+
+def errors(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = None) -> dict[str, float]:
+    """rMAE, relMSE, Reinhard RMSE and mean ratio of (H,W,C) ``image`` against ``reference`` (RGB only)."""
+    img = np.asarray(image, np.float64)[..., :3]
+    ref = np.asarray(reference, np.float64)[..., :3]
+    if img.shape != ref.shape:
+        raise ValueError(f"image is {img.shape[1]}x{img.shape[0]} but the reference is {ref.shape[1]}x{ref.shape[0]}")
+    if mask is None:
+        mask = np.ones(ref.shape[:2], bool)
+    img, ref = img[mask], ref[mask]
+    if img.size == 0:
+        raise ValueError("no pixel is fully covered in the reference: nothing to compare")
+    ref_mean = float(ref.mean())
+    eps = 0.01 * ref_mean if ref_mean > 0 else 1e-8
+    diff = img - ref
+    tone = img / (1.0 + np.maximum(img, 0.0)) - ref / (1.0 + np.maximum(ref, 0.0))
+    if ref_mean > 0:
+        ratio = float(img.mean() / ref_mean)
+    else:
+        ratio = 1.0 if img.mean() == 0 else float("inf")
+    return {
+        "rmae": float(np.mean(np.abs(diff) / (ref + eps))),
+        "relmse": float(np.mean(diff * diff / (ref * ref + eps * eps))),
+        "rmse_reinhard": float(np.sqrt(np.mean(tone * tone))),
+        "mean_ratio": ratio,
+        "pixels": int(mask.sum()),
+    }
+
+
+def error_map(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """Per-pixel relative absolute error (H,W), the quantity rMAE averages."""
+    img = np.asarray(image, np.float64)[..., :3]
+    ref = np.asarray(reference, np.float64)[..., :3]
+    eps = 0.01 * max(float(ref.mean()), 1e-8)
+    return np.mean(np.abs(img - ref) / (ref + eps), axis=2)
