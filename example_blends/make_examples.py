@@ -8,7 +8,10 @@ Every scene is built deterministically from an empty factory-settings file
 using only ``bpy.data`` / ``bmesh`` (no context-dependent operators except
 ``wm.read_factory_settings`` and ``wm.save_as_mainfile``) and saved,
 compressed, as ``<name>.blend`` into ``DIR`` (default: this script's folder).
-Only those files are written; re-running overwrites them.
+Only those files are written.  Blender does not write byte-identical files
+for identical content, so each scene stores a fingerprint (hash of this
+script + Blender version) and an existing file whose fingerprint matches is
+left untouched; ``--force`` rewrites everything.
 
 Scene conventions: metres, Z up, 256x256 at 100 %, Cycles (64 samples,
 8 bounces), a World whose Background node sets colour and strength, and a
@@ -18,6 +21,7 @@ pure diffuse Principled BSDFs (Roughness 1, Metallic 0, Specular IOR Level 0).
 """
 
 import argparse
+import hashlib
 import math
 import os
 import sys
@@ -99,7 +103,8 @@ def make_world(scene, color, strength):
 # Materials
 # --------------------------------------------------------------------------
 
-def make_material(name, base_color, emission_color=None, emission_strength=0.0):
+def make_material(name, base_color, emission_color=None,
+                  emission_strength=0.0):
     """Pure diffuse Principled BSDF material, optionally emissive."""
     mat = bpy.data.materials.new(name)
     if mat.node_tree is None:  # Blender < 5.0 needs use_nodes
@@ -148,6 +153,7 @@ def make_checker_material(image):
 
 
 def make_base_materials():
+    """The three classic Cornell box materials, keyed by name."""
     return {
         "White": make_material("White", WHITE),
         "Red": make_material("Red", RED),
@@ -159,7 +165,8 @@ def make_base_materials():
 # Mesh helpers
 # --------------------------------------------------------------------------
 
-def link_object(name, data, location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0)):
+def link_object(name, data, location=(0.0, 0.0, 0.0),
+                rotation=(0.0, 0.0, 0.0)):
     """Create an object for ``data`` and link it into the scene collection."""
     obj = bpy.data.objects.new(name, data)
     obj.location = location
@@ -183,8 +190,8 @@ def mesh_object(name, verts, faces, material, uvs=None,
     return link_object(name, mesh, location, rotation)
 
 
-def planar_grid(origin, u_vec, v_vec, u_breaks=(0.0, 1.0), v_breaks=(0.0, 1.0),
-                holes=()):
+def planar_grid(origin, u_vec, v_vec, u_breaks=(0.0, 1.0),
+                v_breaks=(0.0, 1.0), holes=()):
     """Vertices, quads and UVs of a planar rectangle cut into a grid.
 
     Points are ``origin + u * u_vec + v * v_vec`` for u in ``u_breaks`` and
@@ -224,9 +231,15 @@ def box_geometry(size_x, size_y, size_z):
 # Room, blocks, extra geometry
 # --------------------------------------------------------------------------
 
-# Window hole in the left wall: y in [-0.3, 0.3], z in [0.9, 1.5].
-WINDOW_Y = (-0.3, 0.3)
-WINDOW_Z = (0.9, 1.5)
+# Window hole in the left wall and the sun shining through it.  The window
+# sits low and towards the open front, and the sun is turned a little towards
+# the back wall, so that the sunlit patch lands on the floor in front of the
+# tall block and on the block's front face, both in view of the camera
+# (higher windows put the patch behind the short block).
+WINDOW_Y = (-0.7, -0.1)
+WINDOW_Z = (0.4, 1.0)
+SUN_ELEVATION_DEG = 35.0
+SUN_AZIMUTH_DEG = 25.0
 
 
 def build_room(mats, floor_material=None, window=False):
@@ -261,6 +274,7 @@ def build_room(mats, floor_material=None, window=False):
 
 
 def add_box(name, size, location, angle_deg, material):
+    """Box object standing on the floor, turned ``angle_deg`` about Z."""
     verts, faces = box_geometry(*size)
     return mesh_object(name, verts, faces, material, location=location,
                        rotation=(0.0, 0.0, math.radians(angle_deg)))
@@ -317,19 +331,27 @@ def add_light(light_type, energy, location, direction=(0.0, 0.0, -1.0),
 
 
 def add_area_light(shape='SQUARE'):
+    """40 W area light (0.5 m) just below the ceiling, pointing down."""
     return add_light('AREA', 40.0, (0.0, 0.0, 1.98), shape=shape, size=0.5)
 
 
 def add_point_light():
+    """60 W point light of radius 0.05 m under the ceiling."""
     return add_light('POINT', 60.0, (0.0, 0.0, 1.7), shadow_soft_size=0.05)
 
 
-def add_sun_light(elevation_deg=35.0):
-    """Sun shining in through the left-wall window, tilted down."""
-    e = math.radians(elevation_deg)
-    direction = (math.cos(e), 0.0, -math.sin(e))
+def add_sun_light(elevation_deg=SUN_ELEVATION_DEG,
+                  azimuth_deg=SUN_AZIMUTH_DEG):
+    """Sun shining in through the left-wall window.
+
+    The light travels towards +X (into the room), tilted down by
+    ``elevation_deg`` and turned by ``azimuth_deg`` towards +Y.
+    """
+    e, a = math.radians(elevation_deg), math.radians(azimuth_deg)
+    direction = Vector((math.cos(e) * math.cos(a), math.cos(e) * math.sin(a),
+                        -math.sin(e)))
     window_center = Vector((-1.0, sum(WINDOW_Y) / 2, sum(WINDOW_Z) / 2))
-    location = window_center - 1.5 * Vector(direction)
+    location = window_center - 1.5 * direction
     return add_light('SUN', 4.0, location, direction=direction,
                      angle=math.radians(2.0))
 
@@ -354,45 +376,40 @@ def add_camera(scene):
 # --------------------------------------------------------------------------
 
 def cornell_base(world_color=(0.0, 0.0, 0.0), world_strength=0.0,
-                 window=False):
+                 window=False, checker_floor=False):
+    """Fresh scene with world, room, tall block and camera; returns mats."""
     scene = reset_scene()
     make_world(scene, world_color, world_strength)
     mats = make_base_materials()
-    build_room(mats, window=window)
-    add_short_box(mats)
+    floor = None
+    if checker_floor:
+        floor = make_checker_material(make_checker_image())
+    build_room(mats, floor_material=floor, window=window)
     add_tall_box(mats)
     add_camera(scene)
-    return scene, mats
+    return mats
 
 
 def build_cornell_area():
-    cornell_base()
+    add_short_box(cornell_base())
     add_area_light('SQUARE')
 
 
 def build_cornell_point():
-    cornell_base()
+    add_short_box(cornell_base())
     add_point_light()
 
 
 def build_cornell_sun():
-    cornell_base(world_color=(0.5, 0.7, 1.0), world_strength=0.3,
-                 window=True)
+    add_short_box(cornell_base(world_color=(0.5, 0.7, 1.0),
+                               world_strength=0.3, window=True))
     add_sun_light()
 
 
 def build_cornell_textured():
-    scene = reset_scene()
-    make_world(scene, (0.0, 0.0, 0.0), 0.0)
-    mats = make_base_materials()
-    checker = make_checker_material(make_checker_image())
-    emitter = make_material("Emitter", EMITTER_COLOR, EMITTER_COLOR,
-                            EMITTER_STRENGTH)
-    build_room(mats, floor_material=checker)
-    add_sphere(mats)
-    add_tall_box(mats)
-    add_emitter_quad(emitter)
-    add_camera(scene)
+    add_sphere(cornell_base(checker_floor=True))
+    add_emitter_quad(make_material("Emitter", EMITTER_COLOR, EMITTER_COLOR,
+                                   EMITTER_STRENGTH))
     add_area_light('DISK')
 
 
@@ -404,8 +421,42 @@ SCENES = {
 }
 
 
-def save(filepath):
-    """Save the current file compressed (overwrites)."""
+FINGERPRINT_KEY = "vpl_gi_example_fingerprint"
+
+
+def fingerprint(name):
+    """Identify what produced a scene: this script's bytes + Blender version.
+
+    Blender cannot write byte-identical .blend files for identical content
+    (random node identifiers, a time-seeded mesh field, uninitialised
+    padding), so instead of rewriting unchanged scenes the fingerprint is
+    stored in the scene and an existing file is only replaced when it differs.
+    """
+    with open(os.path.abspath(__file__), "rb") as f:
+        source = f.read()
+    digest = hashlib.sha256()
+    for part in (source, bpy.app.version_string.encode(), name.encode()):
+        digest.update(part)
+        digest.update(b"\0")
+    return digest.hexdigest()
+
+
+def stored_fingerprint(filepath):
+    """Fingerprint saved in an existing .blend, or None."""
+    if not os.path.isfile(filepath):
+        return None
+    try:
+        bpy.ops.wm.open_mainfile(filepath=filepath, load_ui=False)
+    except RuntimeError:
+        return None
+    scene = bpy.data.scenes[0] if bpy.data.scenes else None
+    return scene.get(FINGERPRINT_KEY) if scene is not None else None
+
+
+def save(filepath, stamp):
+    """Stamp the scene and save the current file compressed (overwrites)."""
+    bpy.context.scene[FINGERPRINT_KEY] = stamp
+    bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backup
     bpy.ops.wm.save_as_mainfile(filepath=filepath, compress=True,
                                 check_existing=False, relative_remap=False)
 
@@ -415,13 +466,19 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", default=default_out,
                         help="output folder (default: %(default)s)")
+    parser.add_argument("--force", action="store_true",
+                        help="rewrite files even if they are up to date")
     args = parser.parse_args(argv)
     out_dir = os.path.abspath(args.out)
     os.makedirs(out_dir, exist_ok=True)
     for name, build in SCENES.items():
-        build()
         path = os.path.join(out_dir, name + ".blend")
-        save(path)
+        stamp = fingerprint(name)
+        if not args.force and stored_fingerprint(path) == stamp:
+            print(f"up to date: {path}")
+            continue
+        build()
+        save(path, stamp)
         print(f"wrote {path} ({os.path.getsize(path)} bytes)")
 
 
