@@ -284,10 +284,13 @@ class LightSet:
 
         The normal is zero where the light point is not on scene geometry (analytic lights, the world)."""
         count = len(p)
+        target_n = np.zeros((count, 3))
+        if len(self.lights) == 1:
+            out = self.lights[0].sample_incident(p, n, u1, u2)
+            return out[0], out[1], out[2], out[3] if len(out) == 4 else target_n
         wi = np.zeros((count, 3))
         dist = np.zeros(count)
         weight = np.zeros((count, 3))
-        target_n = np.zeros((count, 3))
         choice = sample_cdf(self.cdf, u_select)
         for index, light in enumerate(self.lights):
             m = np.nonzero(choice == index)[0]

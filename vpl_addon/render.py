@@ -1,12 +1,14 @@
 """The pipeline of one frame: Scene -> Tracer -> G-buffer blocks -> direct light -> passes.
 
-Pixels are processed in blocks so memory stays flat at any resolution and sample count; each block draws its
-random numbers from ``(seed, block)`` so a render is deterministic. ``progress(fraction, text)`` is called after
+Pixels are processed in blocks, concurrently on all cores, so memory stays flat at any resolution and sample
+count; each block draws its random numbers from ``(seed, block)`` so a render is deterministic. ``progress(fraction, text)`` is called after
 each block and may return False to cancel (ESC in Blender), which raises ``Cancelled``.
 """
 from __future__ import annotations
 
+import threading
 import time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -65,33 +67,43 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     want = set(settings.passes) | {P.COMBINED}
     need_direct = bool({P.DIFFUSE_DIRECT, P.COMBINED} & want) and len(lights) > 0
     images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want}
-    pixels_all = np.arange(w * h)
-    blocks = range(0, w * h, settings.block_pixels)
+    starts = list(range(0, w * h, settings.block_pixels))
     timing = {"gbuffer": 0.0, "direct": 0.0}
+    cancelled = threading.Event()
+
+    def shade_block(number: int):
+        """Everything for one block of pixels; blocks run concurrently (numpy and embree release the GIL)."""
+        if cancelled.is_set():
+            return 0.0, 0.0
+        pixels = np.arange(starts[number], min(starts[number] + settings.block_pixels, w * h))
+        rng = np.random.default_rng([settings.seed, number])
+        t = time.perf_counter()
+        gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
+        t_gbuffer = time.perf_counter() - t
+        direct = diffuse_direct(gbuf, lights, tracer, settings.light_samples, rng) if need_direct else 0.0
+        t_direct = time.perf_counter() - t - t_gbuffer
+        images[P.COMBINED][pixels, :3] = gbuf.splat(gbuf.albedo * direct + gbuf.emission)
+        images[P.COMBINED][pixels, 3] = gbuf.coverage
+        if P.DIFFUSE_DIRECT in want:
+            images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, gbuf.albedo.shape))
+        if P.DIFFUSE_COLOR in want:
+            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(gbuf.albedo)
+        if P.EMIT in want:
+            images[P.EMIT][pixels] = gbuf.splat(gbuf.emission)
+        return t_gbuffer, t_direct
+
     try:
-        for number, lo in enumerate(blocks):
-            pixels = pixels_all[lo:lo + settings.block_pixels]
-            rng = np.random.default_rng([settings.seed, number])
-            t = time.perf_counter()
-            gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
-            timing["gbuffer"] += time.perf_counter() - t
-            t = time.perf_counter()
-            direct = diffuse_direct(gbuf, lights, tracer, settings.light_samples, rng) if need_direct else 0.0
-            timing["direct"] += time.perf_counter() - t
-            shaded = gbuf.albedo * direct + gbuf.emission
-            images[P.COMBINED][pixels, :3] = gbuf.splat(shaded)
-            images[P.COMBINED][pixels, 3] = gbuf.coverage
-            if P.DIFFUSE_DIRECT in want:
-                images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, gbuf.albedo.shape))
-            if P.DIFFUSE_COLOR in want:
-                images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(gbuf.albedo)
-            if P.EMIT in want:
-                images[P.EMIT][pixels] = gbuf.splat(gbuf.emission)
-            if progress is not None and progress((number + 1) / len(blocks), "direct light") is False:
-                raise Cancelled()
+        with ThreadPoolExecutor(tracer.threads) as pool:
+            for done, (t_gbuffer, t_direct) in enumerate(pool.map(shade_block, range(len(starts))), start=1):
+                timing["gbuffer"] += t_gbuffer
+                timing["direct"] += t_direct
+                if progress is not None and progress(done / len(starts), "direct light") is False:
+                    cancelled.set()
+        if cancelled.is_set():
+            raise Cancelled()
     finally:
         tracer.close()
-    result.seconds.update(timing)
+    result.seconds.update(timing)  # summed over threads: CPU-seconds of each stage
     result.rays = tracer.rays_traced
     result.passes = {name: images[name].reshape(h, w, -1).astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}
