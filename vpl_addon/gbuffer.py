@@ -79,7 +79,7 @@ class GBuffer:
 
     def splat(self, values: np.ndarray) -> np.ndarray:
         """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film."""
-        values = np.asarray(values, np.float64).reshape(len(self.sample), -1)
+        values = np.asarray(values, np.float64)
         index = self.sample // self.spp
         sums = [np.bincount(index, weights=values[:, c], minlength=len(self.pixels)) for c in range(values.shape[1])]
         return np.stack(sums, axis=1) / self.spp

@@ -1,0 +1,48 @@
+"""Shared fixtures. Engine tests import ``vpl_addon`` directly (no Blender); integration tests get the extension
+package through ``ext`` (the repo root loaded as ``vpl_gi``, as ``python -m vpl_addon`` does) and the real bpy."""
+from __future__ import annotations
+
+import os
+import pathlib
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+EXAMPLES = ROOT / "example_blends"
+REFERENCES = ROOT / "tests" / "references"
+EXAMPLE_SCENES = ("cornell_area", "cornell_point", "cornell_sun", "cornell_textured")
+
+
+@pytest.fixture(scope="session")
+def ext():
+    from vpl_addon.__main__ import extension_package
+    package = extension_package()
+    import bpy  # noqa: F401  (fails loudly if the bpy module is missing)
+    if not hasattr(bpy.types.Scene, "vpl_gi"):
+        package.register()
+    return package
+
+
+def run_cli(*args, cwd=ROOT, timeout=600):
+    """``python -m vpl_addon ARGS`` in a fresh interpreter: (exit code, stdout, stderr)."""
+    proc = subprocess.run([sys.executable, "-m", "vpl_addon", *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def plane_scene(lights=(), world=(0.0, 0.0, 0.0), size=10.0, height=5.0, res=32, view=2.0, materials=None,
+                center=(0.0, 0.0, 0.0), scale=1.0):
+    """A square floor (z = 0, facing +Z) seen straight down by an orthographic camera: pixel <-> position."""
+    from vpl_addon.camera import Camera, view_window
+    from vpl_addon.scene import Materials, Scene
+    c = np.asarray(center, float)
+    s = size * scale
+    tri = np.array([[[-s, -s, 0], [s, -s, 0], [s, s, 0]], [[-s, -s, 0], [s, s, 0], [-s, s, 0]]], float) + c
+    m = np.eye(4)
+    m[:3, 3] = c + [0, 0, height * scale]
+    cam = Camera(m, res, res, view_window(res, res, orthographic=True, ortho_scale=view * scale), orthographic=True,
+                 clip_start=1e-3 * scale)
+    return Scene.build(tri, materials or Materials.make([]), list(lights), cam, world=world)

@@ -1,0 +1,155 @@
+"""Direct light of every light type against closed-form irradiance on a plane (no Blender needed).
+
+The camera looks straight down at a floor through a 2 cm window, so every pixel sees (almost) the point below the
+light and ``Diffuse Direct`` must equal E / pi there."""
+import numpy as np
+import pytest
+
+from conftest import plane_scene
+from vpl_addon.lights import AreaLight, EmissiveTriangles, PointLight, SpotLight, SunLight
+from vpl_addon.render import RenderSettings, render
+from vpl_addon.scene import Materials, Scene
+
+H = 1.0  # light height above the floor
+SETTINGS = RenderSettings(samples=16, light_samples=16)
+
+
+def diffuse_direct(scene, settings=SETTINGS):
+    result = render(scene, settings)
+    image = result.passes["Diffuse Direct"]
+    assert np.isfinite(image).all() and (image >= 0).all()
+    return float(image[..., 0].mean()), result
+
+
+def rect_irradiance_below_center(L, a, b, h):
+    """Irradiance under the centre of an a x b Lambertian rectangle of radiance L, parallel at height h."""
+    def corner(x, y):
+        A, B = x / h, y / h
+        return 0.5 * (A / np.hypot(1, A) * np.arctan(B / np.hypot(1, A)) + B / np.hypot(1, B) * np.arctan(A / np.hypot(1, B)))
+    return 4.0 * L * corner(a / 2, b / 2)
+
+
+def test_point_light_is_power_over_four_pi():
+    value, _ = diffuse_direct(plane_scene([PointLight("p", [0, 0, H], [100.0] * 3)], view=0.02))
+    assert value == pytest.approx(100.0 / (4 * np.pi) / H ** 2 / np.pi, rel=2e-3)
+
+
+def test_sphere_light_matches_point_light_of_same_power():
+    value, _ = diffuse_direct(plane_scene([PointLight("p", [0, 0, H], [100.0] * 3, radius=0.3)], view=0.02))
+    assert value == pytest.approx(100.0 / (4 * np.pi) / H ** 2 / np.pi, rel=1e-2)
+
+
+@pytest.mark.parametrize("size, blend, expected_fraction", [
+    (np.radians(60), 0.0, 1.0),  # axis inside the cone: a full point light
+    (np.radians(60), 0.5, 1.0),
+])
+def test_spot_light_on_axis(size, blend, expected_fraction):
+    spot = SpotLight("s", [0, 0, H], [100.0] * 3, direction=[0, 0, -1], spot_size=size, spot_blend=blend)
+    value, _ = diffuse_direct(plane_scene([spot], view=0.02))
+    assert value == pytest.approx(expected_fraction * 100.0 / (4 * np.pi) / np.pi, rel=2e-3)
+
+
+def test_spot_light_cone_and_blend():
+    """Aimed 40 degrees away: the floor below lies at 40 degrees off axis, outside a 60 degree cone and inside
+    the smooth edge of a 90 degree cone with blend 1, where Cycles' smoothstep gives a known fraction."""
+    tilt = np.radians(40)
+    axis = [np.sin(tilt), 0, -np.cos(tilt)]
+    outside = SpotLight("s", [0, 0, H], [100.0] * 3, direction=axis, spot_size=np.radians(60), spot_blend=0.0)
+    assert diffuse_direct(plane_scene([outside], view=0.02))[0] == 0.0
+    wide = SpotLight("s", [0, 0, H], [100.0] * 3, direction=axis, spot_size=np.radians(90), spot_blend=1.0)
+    cos_half = np.cos(np.radians(45))
+    x = (np.cos(tilt) - cos_half) / (1 - cos_half)
+    fraction = x * x * (3 - 2 * x)
+    assert diffuse_direct(plane_scene([wide], view=0.02))[0] == pytest.approx(
+        fraction * 100.0 / (4 * np.pi) / np.pi, rel=5e-3)
+
+
+@pytest.mark.parametrize("angle", [0.0, np.radians(10)])
+def test_sun_gives_strength_times_cosine(angle):
+    tilt = np.radians(30)
+    sun = SunLight("sun", [np.sin(tilt), 0, -np.cos(tilt)], [3.0] * 3, angle=angle)
+    value, _ = diffuse_direct(plane_scene([sun], view=0.02))
+    assert value == pytest.approx(3.0 * np.cos(tilt) / np.pi, rel=2e-3)
+
+
+@pytest.mark.parametrize("a, b", [(0.5, 0.5), (1.0, 0.25)])
+def test_rectangle_area_light(a, b):
+    light = AreaLight("a", [0, 0, H], [a, 0, 0], [0, b, 0], [0, 0, -1], [40.0] * 3)
+    radiance = 40.0 / (np.pi * a * b)
+    value, _ = diffuse_direct(plane_scene([light], view=0.02))
+    assert value == pytest.approx(rect_irradiance_below_center(radiance, a, b, H) / np.pi, rel=1e-2)
+
+
+def test_disk_area_light():
+    d = 0.8
+    light = AreaLight("a", [0, 0, H], [d, 0, 0], [0, d, 0], [0, 0, -1], [40.0] * 3, round=True)
+    radiance = 40.0 / (np.pi * np.pi * d * d / 4)
+    r = d / 2
+    value, _ = diffuse_direct(plane_scene([light], view=0.02))
+    assert value == pytest.approx(radiance * r * r / (H * H + r * r), rel=1e-2)
+
+
+def test_area_light_is_one_sided():
+    light = AreaLight("a", [0, 0, H], [0.5, 0, 0], [0, 0.5, 0], [0, 0, 1], [40.0] * 3)
+    assert diffuse_direct(plane_scene([light], view=0.02))[0] == 0.0
+
+
+def test_emissive_triangles_emit_from_both_sides():
+    """A glowing quad above the floor whose front faces up: the floor sees its back."""
+    s = 0.25
+    quad = np.array([[[-s, -s, H], [s, -s, H], [s, s, H]], [[-s, -s, H], [s, s, H], [-s, s, H]]], float)
+    floor = plane_scene([], view=0.02, height=0.5)  # the camera sits between the floor and the quad
+    materials = Materials.make([{"name": "glow", "base_color": (0, 0, 0), "emission": (2.0, 2.0, 2.0)}])
+    tri = np.concatenate([floor.triangles, quad])
+    scene = Scene.build(tri, materials, [], floor.camera, material=[0, 0, 1, 1])
+    assert EmissiveTriangles.from_scene(scene) is not None
+    value, _ = diffuse_direct(scene)
+    assert value == pytest.approx(rect_irradiance_below_center(2.0, 2 * s, 2 * s, H) / np.pi, rel=1e-2)
+
+
+def test_world_light_is_its_radiance():
+    value, _ = diffuse_direct(plane_scene([], world=(0.7, 0.7, 0.7), view=0.5))
+    assert value == pytest.approx(0.7, rel=1e-6)
+
+
+def test_no_light_traces_no_shadow_rays_and_says_so():
+    result = render(plane_scene([], res=16), SETTINGS)
+    assert result.passes["Diffuse Direct"].max() == 0.0
+    assert result.rays == 16 * 16 * SETTINGS.samples  # camera rays only
+    assert any("no lights" in w for w in result.warnings)
+
+
+def test_light_inside_closed_box_does_not_leak():
+    """A point light under an upside-down box lying on the floor: the floor outside stays dark."""
+    floor = plane_scene([], view=0.02)
+    b = 0.3
+    corners = np.array([[x, y, z] for z in (0.0, 0.6) for y in (-b, b) for x in (-b, b)], float) + [1.0, 0, 0]
+    faces = [(4, 5, 7), (4, 7, 6), (0, 1, 5), (0, 5, 4), (2, 6, 7), (2, 7, 3), (0, 4, 6), (0, 6, 2), (1, 3, 7),
+             (1, 7, 5)]  # no bottom: the floor closes it
+    tri = np.concatenate([floor.triangles, corners[np.array(faces)]])
+    scene = Scene.build(tri, Materials.make([]), [PointLight("p", [1.0, 0, 0.3], [1000.0] * 3)], floor.camera)
+    assert diffuse_direct(scene)[0] == 0.0
+
+
+@pytest.mark.parametrize("scale, center", [(1e-4, (0, 0, 0)), (1e4, (0, 0, 0)), (1.0, (1e5, -1e5, 1e5))])
+def test_world_light_survives_extreme_scale_and_position(scale, center):
+    """Shadow rays leaving the floor must not hit it, whatever the scale or distance from the origin."""
+    value, _ = diffuse_direct(plane_scene([], world=(0.5, 0.5, 0.5), view=0.5, scale=scale, center=center))
+    assert value == pytest.approx(0.5, rel=1e-6)
+
+
+@pytest.mark.parametrize("scale", [1e-3, 1e3])
+def test_point_light_scales_as_inverse_square(scale):
+    light = PointLight("p", [0, 0, H * scale], [100.0] * 3)
+    value, _ = diffuse_direct(plane_scene([light], view=0.02, scale=scale))
+    assert value == pytest.approx(100.0 / (4 * np.pi) / (H * scale) ** 2 / np.pi, rel=2e-3)
+
+
+def test_same_seed_same_image_other_seed_other_noise():
+    light = AreaLight("a", [0, 0, H], [0.5, 0, 0], [0, 0.5, 0], [0, 0, -1], [40.0] * 3)
+    scene = plane_scene([light], view=3.0, res=16)
+    a = render(scene, RenderSettings(samples=4, light_samples=1, seed=1)).passes["Diffuse Direct"]
+    b = render(scene, RenderSettings(samples=4, light_samples=1, seed=1)).passes["Diffuse Direct"]
+    c = render(scene, RenderSettings(samples=4, light_samples=1, seed=2)).passes["Diffuse Direct"]
+    assert np.array_equal(a, b)
+    assert not np.array_equal(a, c)
