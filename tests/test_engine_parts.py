@@ -1,0 +1,162 @@
+"""Unit tests of the engine's parts: scene sanitising, camera, tracer, textures, metrics, EXR files."""
+import os
+
+import numpy as np
+import pytest
+
+from vpl_addon.camera import Camera, filter_inverse_cdf, view_window
+from vpl_addon.exr import read_passes, write_passes
+from vpl_addon.metrics import coverage_mask, errors
+from vpl_addon.scene import Materials, Scene
+from vpl_addon.textures import sample_bilinear
+from vpl_addon.tracer import Tracer
+
+CAM = Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=False))
+
+
+def test_scene_drops_degenerate_and_nonfinite_triangles_and_names_their_object():
+    tri = np.array([
+        [[0, 0, 0], [1, 0, 0], [0, 1, 0]],  # fine
+        [[0, 0, 0], [1, 0, 0], [2, 0, 0]],  # collinear: zero area
+        [[0, 0, 0], [0, 0, 0], [0, 0, 0]],  # collapsed
+        [[0, 0, 0], [np.nan, 0, 0], [0, 1, 0]],  # NaN corner
+    ], float)
+    scene = Scene.build(tri, Materials.make([]), [], CAM, object_id=[0, 1, 1, 1], object_names=["good", "bad"])
+    assert len(scene.triangles) == 1
+    assert scene.dropped == {"bad": 3}
+
+
+def test_bad_shading_normals_and_uvs_fall_back():
+    tri = np.array([[[0, 0, 0], [1, 0, 0], [0, 1, 0]]], float)
+    normals = np.array([[[0, 0, 0], [np.nan, 0, 1], [0, 0, 2]]], float)
+    uvs = np.array([[[np.inf, 0], [0, np.nan], [0.5, 0.5]]])
+    scene = Scene.build(tri, Materials.make([]), [], CAM, normals=normals, uvs=uvs)
+    assert np.allclose(scene.normals[0], [[0, 0, 1]] * 3)
+    assert np.isfinite(scene.uvs).all()
+
+
+def test_material_values_are_clamped_to_their_ranges():
+    m = Materials.make([{"name": "x", "base_color": (2, -1, np.nan), "roughness": 3, "emission": (np.inf, -1, 1)}])
+    assert np.allclose(m.base_color[1], [1, 0, 0]) and m.roughness[1] == 1
+    assert np.allclose(m.emission[1], [0, 0, 1])
+
+
+@pytest.mark.parametrize("fit, w, h, expect", [
+    ("AUTO", 320, 200, (-0.36, 0.36, -0.225, 0.225)),
+    ("AUTO", 200, 320, (-0.225, 0.225, -0.36, 0.36)),
+    ("HORIZONTAL", 200, 320, (-0.36, 0.36, -0.576, 0.576)),
+    ("VERTICAL", 320, 200, (-0.384, 0.384, -0.24, 0.24)),
+])
+def test_view_window_follows_blender_sensor_fit(fit, w, h, expect):
+    # lens 50 mm, sensor 36 x 24: half extent of the fitted side is sensor / (2 lens)
+    assert np.allclose(view_window(w, h, orthographic=False, lens=50, sensor_width=36, sensor_height=24,
+                                   sensor_fit=fit), expect)
+
+
+def test_view_window_shift_is_a_fraction_of_the_fitted_side():
+    x0, x1, y0, y1 = view_window(320, 200, orthographic=True, ortho_scale=4.0, shift_x=0.25, shift_y=-0.1)
+    assert np.allclose([x0, x1], [-2 + 1.0, 2 + 1.0]) and np.allclose([y0, y1], [-1.25 - 0.4, 1.25 - 0.4])
+
+
+@pytest.mark.parametrize("kind, width, support", [("BOX", 1.0, 0.5), ("BLACKMAN_HARRIS", 1.5, 1.5),
+                                                  ("GAUSSIAN", 1.5, 2.25)])
+def test_pixel_filter_tables_are_symmetric_and_within_support(kind, width, support):
+    table = filter_inverse_cdf(kind, width)
+    assert np.all(np.diff(table) >= 0)
+    assert table[0] >= -support - 1e-9 and table[-1] <= support + 1e-9
+    assert np.allclose(table, -table[::-1], atol=1e-6)
+
+
+def test_perspective_rays_go_through_the_image_corners():
+    o, d, _ = CAM.rays(np.array([0.0, 8.0]), np.array([0.0, 8.0]))
+    x0, x1, y0, y1 = CAM.window
+    assert np.allclose(d[0], np.array([x0, y1, -1]) / np.linalg.norm([x0, y1, -1]))  # top left
+    assert np.allclose(d[1], np.array([x1, y0, -1]) / np.linalg.norm([x1, y0, -1]))  # bottom right
+
+
+def test_tracer_hits_misses_and_occludes():
+    tri = np.array([[[-1, -1, 0], [1, -1, 0], [0, 1, 0]]], float)
+    tracer = Tracer(tri, threads=2)
+    o = np.array([[0, 0, 1], [5, 5, 1]], float)
+    d = np.array([[0, 0, -1], [0, 0, -1]], float)
+    hits = tracer.intersect(o, d)
+    assert list(hits.prim) == [0, -1] and hits.t[0] == pytest.approx(1.0) and np.isinf(hits.t[1])
+    assert list(tracer.occluded(o, d, np.array([2.0, 2.0]))) == [True, False]
+    assert list(tracer.occluded(o, d, np.array([0.5, 0.5]))) == [False, False]
+    tracer.close()
+
+
+def test_tracer_splits_big_batches_over_threads_with_identical_results():
+    rng = np.random.default_rng(0)
+    tri = rng.random((500, 1, 3)) + rng.normal(size=(500, 3, 3)) * 0.05
+    o = rng.random((200_000, 3)) * 2 - 0.5
+    d = rng.normal(size=(200_000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    one, two = Tracer(tri, threads=1), Tracer(tri, threads=2)
+    assert np.array_equal(one.intersect(o, d).prim, two.intersect(o, d).prim)
+    assert two.rays_traced == 200_000
+    two.close()
+
+
+def test_empty_scene_traces_nothing():
+    tracer = Tracer(np.zeros((0, 3, 3)))
+    hits = tracer.intersect(np.zeros((3, 3)), np.tile([0, 0, 1.0], (3, 1)))
+    assert (hits.prim == -1).all() and not tracer.occluded(np.zeros((3, 3)), np.tile([0, 0, 1.0], (3, 1)), 1).any()
+
+
+@pytest.mark.parametrize("scale, offset", [(1e-4, 0.0), (1.0, 0.0), (1e4, 0.0), (1.0, 1e5)])
+def test_offset_origin_escapes_the_surface_at_any_scale(scale, offset):
+    """Rays leaving random points of a tilted triangle never hit that triangle again."""
+    rng = np.random.default_rng(1)
+    tri = (np.array([[[0, 0, 0], [1, 0.2, 0.1], [0.1, 1, 0.3]]]) * scale) + offset
+    tracer = Tracer(tri, threads=1)
+    b = rng.random((100_000, 2))
+    b[b.sum(1) > 1] = 1 - b[b.sum(1) > 1]
+    t = tri[0]
+    p = t[0] + b[:, :1] * (t[1] - t[0]) + b[:, 1:] * (t[2] - t[0])
+    n = np.cross(t[1] - t[0], t[2] - t[0])
+    n /= np.linalg.norm(n)
+    d = n + rng.normal(size=(100_000, 3)) * 0.7  # leaving through the front, grazing included
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    d[d @ n <= 0.01] = n
+    origin = tracer.offset_origin(p, np.broadcast_to(n, p.shape))
+    assert not tracer.occluded(origin, d, np.full(len(p), 10 * scale)).any()
+
+
+def test_bilinear_texture_lookup_repeats_and_interpolates():
+    tex = np.zeros((2, 2, 3), np.float32)
+    tex[0, 0] = 1.0  # bottom-left texel
+    assert np.allclose(sample_bilinear(tex, np.array([[0.25, 0.25]])), 1.0)  # its centre
+    assert np.allclose(sample_bilinear(tex, np.array([[1.25, -0.75]])), 1.0)  # repeated
+    assert np.allclose(sample_bilinear(tex, np.array([[0.5, 0.25]])), 0.5)  # halfway to the next texel
+
+
+def test_metrics_on_known_images():
+    ref = np.ones((4, 4, 3))
+    img = ref * 1.1
+    e = errors(img, ref)
+    assert e["mean_ratio"] == pytest.approx(1.1)
+    assert e["rmae"] == pytest.approx(0.1 / 1.01)
+    assert e["relmse"] == pytest.approx(0.01 / (1 + 1e-4))
+    assert errors(ref, ref)["rmae"] == 0.0
+
+
+def test_metrics_ignore_pixels_the_reference_does_not_cover_fully():
+    ref = np.ones((2, 2, 3))
+    img = ref.copy()
+    img[0, 0] = 100.0
+    alpha = np.array([[0.5, 1.0], [1.0, 0.9995]])
+    mask = coverage_mask(alpha, (2, 2))
+    assert mask.sum() == 3 and errors(img, ref, mask)["rmae"] == 0.0
+
+
+def test_exr_round_trip_with_attributes_and_no_partial_file(tmp_path):
+    passes = {"Combined": np.random.rand(3, 5, 4).astype(np.float32),
+              "Diffuse Direct": np.random.rand(3, 5, 3).astype(np.float32)}
+    path = tmp_path / "x.exr"
+    write_passes(str(path), passes, {"vplReference": '{"hash": "abc"}'})
+    back, header = read_passes(str(path))
+    assert header["vplReference"] == '{"hash": "abc"}'
+    for name in passes:
+        assert np.array_equal(back[name], passes[name])
+    assert os.listdir(tmp_path) == ["x.exr"]
