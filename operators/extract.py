@@ -242,16 +242,17 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     warnings: list[str] = []
     camera = camera_of(scene)
     materials = _MaterialTable(warnings)
-    parts, lights, names = [], [], []
+    parts, lights, names = [], [], {}
     for inst in depsgraph.object_instances:
         obj = inst.object
+        if obj.hide_render:  # a render depsgraph has dropped these already; a viewport one has not
+            continue
         if obj.type == "LIGHT":
             light = _light(obj, inst.matrix_world, warnings)
             if light is not None:
                 lights.append(light)
         elif obj.type in GEOMETRY_TYPES:
-            arrays = _mesh_arrays(obj, inst.matrix_world, materials, len(names))
-            names.append(obj.name)
+            arrays = _mesh_arrays(obj, inst.matrix_world, materials, names.setdefault(obj.name, len(names)))
             if arrays is not None:
                 parts.append(arrays)
     if parts:
@@ -260,6 +261,6 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
-                        object_id=object_id, object_names=names or ["none"], world=_world(scene, warnings),
+                        object_id=object_id, object_names=list(names) or ["none"], world=_world(scene, warnings),
                         textures=materials.textures)
     return built, warnings
