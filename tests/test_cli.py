@@ -1,0 +1,113 @@
+"""The command line with the real bpy module: render, compare, and bad input answered in one line."""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES, run_cli
+
+pytestmark = pytest.mark.blender
+
+
+def assert_one_line_error(code, err, *words):
+    assert code != 0
+    assert "Traceback" not in err
+    lines = [l for l in err.splitlines() if l.startswith("vpl_addon: error:")]
+    assert len(lines) == 1, err
+    for word in words:
+        assert word in lines[0]
+
+
+@pytest.fixture
+def small_blend(ext, tmp_path):
+    """Save a tiny scene (a floor, optional camera/light/degenerate mesh) to a .blend and return a factory."""
+    import bpy
+
+    def make(camera=True, light=True, degenerate=False, name="s.blend"):
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        scene = bpy.context.scene
+        scene.render.resolution_x = scene.render.resolution_y = 24
+        mesh = bpy.data.meshes.new("Floor")
+        mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
+        scene.collection.objects.link(bpy.data.objects.new("Floor", mesh))
+        if degenerate:
+            bad = bpy.data.meshes.new("Sliver")
+            bad.from_pydata([(0, 0, 1), (1, 0, 1), (2, 0, 1)], [], [(0, 1, 2)])
+            scene.collection.objects.link(bpy.data.objects.new("Sliver", bad))
+        if camera:
+            cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+            cam.location = (0, 0, 5)
+            scene.collection.objects.link(cam)
+            scene.camera = cam
+        if light:
+            lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+            lamp.location = (0, 0, 2)
+            scene.collection.objects.link(lamp)
+        path = tmp_path / name
+        bpy.ops.wm.save_as_mainfile(filepath=str(path))
+        return path
+
+    return make
+
+
+def test_render_writes_cycles_named_passes_and_a_timing_line(small_blend, tmp_path):
+    from vpl_addon.exr import read_passes
+    out = tmp_path / "out.exr"
+    code, stdout, stderr = run_cli("render", small_blend(), "-o", out, "--samples", "4", "--frame", "1")
+    assert code == 0, stderr
+    assert f"wrote {out}" in stdout and "rays" in stdout
+    passes, _ = read_passes(str(out))
+    assert {"Combined", "Diffuse Direct", "Diffuse Color"} <= set(passes)
+    assert passes["Diffuse Direct"].mean() > 0 and np.isfinite(passes["Combined"]).all()
+    assert passes["Combined"][..., 3].min() == 1.0  # the floor fills the frame
+
+
+def test_existing_output_is_not_overwritten_without_asking(small_blend, tmp_path):
+    out = tmp_path / "keep.exr"
+    out.write_bytes(b"precious")
+    code, _, stderr = run_cli("render", small_blend(), "-o", out, "--samples", "1")
+    assert_one_line_error(code, stderr, "--overwrite")
+    assert out.read_bytes() == b"precious"
+
+
+def test_missing_file(tmp_path):
+    code, _, stderr = run_cli("render", tmp_path / "nope.blend", "-o", tmp_path / "o.exr")
+    assert_one_line_error(code, stderr, "no such file", "nope.blend")
+    assert not (tmp_path / "o.exr").exists()
+
+
+def test_scene_without_camera(small_blend, tmp_path):
+    code, _, stderr = run_cli("render", small_blend(camera=False), "-o", tmp_path / "o.exr")
+    assert_one_line_error(code, stderr, "no active camera")
+    assert not list(tmp_path.glob("*.exr"))
+
+
+def test_scene_without_lights_renders_black_and_says_so(small_blend, tmp_path):
+    from vpl_addon.exr import read_passes
+    code, _, stderr = run_cli("render", small_blend(light=False), "-o", tmp_path / "o.exr", "--samples", "2")
+    assert code == 0 and "no lights" in stderr
+    passes, _ = read_passes(str(tmp_path / "o.exr"))
+    assert passes["Diffuse Direct"].max() == 0.0
+
+
+def test_degenerate_triangles_are_skipped_with_a_warning_naming_the_object(small_blend, tmp_path):
+    code, _, stderr = run_cli("render", small_blend(degenerate=True), "-o", tmp_path / "o.exr", "--samples", "2")
+    assert code == 0 and "'Sliver'" in stderr and "degenerate" in stderr
+
+
+def test_compare_prints_json_per_pass_and_writes_a_heatmap(small_blend, tmp_path):
+    blend = small_blend()
+    a, b = tmp_path / "a.exr", tmp_path / "b.exr"
+    assert run_cli("render", blend, "-o", a, "--samples", "2", "--seed", "1")[0] == 0
+    assert run_cli("render", blend, "-o", b, "--samples", "2", "--seed", "2")[0] == 0
+    code, stdout, stderr = run_cli("compare", a, b, "--heatmap", tmp_path / "err.png")
+    assert code == 0, stderr
+    result = json.loads(stdout)
+    dd = result["Diffuse Direct"]
+    assert 0 < dd["rmae"] < 0.5 and abs(dd["mean_ratio"] - 1) < 0.1
+    assert (tmp_path / "err.png").stat().st_size > 1000
+
+
+def test_compare_of_a_missing_file(tmp_path):
+    code, _, stderr = run_cli("compare", tmp_path / "a.exr", EXAMPLES / "nothing.exr")
+    assert_one_line_error(code, stderr, "no such file")
