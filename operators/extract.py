@@ -175,21 +175,32 @@ def _light(obj, matrix, warnings):
     m = _matrix(matrix)
     pos = m[:3, 3]
     down = -m[:3, 2]
-    color = np.array(data.color[:3], np.float64)
     name = obj.name
-    if data.type == "POINT":
-        return PointLight(name, pos, color * data.energy, radius=data.shadow_soft_size)
-    if data.type == "SPOT":
-        return SpotLight(name, pos, color * data.energy, radius=data.shadow_soft_size, direction=down,
-                         spot_size=data.spot_size, spot_blend=data.spot_blend)
+    if getattr(data, "use_temperature", False):
+        warnings.append(f"light {name!r}: colour temperature is not supported; using its colour alone")
+    if getattr(data, "use_nodes", False):
+        warnings.append(f"light {name!r}: light nodes are not supported; using colour and power alone")
+    power = np.array(data.color[:3], np.float64) * data.energy * 2.0 ** getattr(data, "exposure", 0.0)
+    normalize = getattr(data, "normalize", True)  # off: power is radiance-like, not divided by the light's area
+    if data.type in {"POINT", "SPOT"}:
+        radius = data.shadow_soft_size
+        if not normalize and radius > 0:
+            power = power * math.pi * radius * radius
+        if data.type == "POINT":
+            return PointLight(name, pos, power, radius=radius)
+        return SpotLight(name, pos, power, radius=radius, direction=down, spot_size=data.spot_size,
+                         spot_blend=data.spot_blend)
     if data.type == "SUN":
-        return SunLight(name, down, color * data.energy, angle=data.angle)
+        return SunLight(name, down, power, angle=data.angle)
     if data.type == "AREA":
         if getattr(data, "spread", math.pi) < math.pi - 1e-4:
             warnings.append(f"light {name!r}: spread below 180 degrees is not supported; rendered as 180")
         size_v = data.size_y if data.shape in {"RECTANGLE", "ELLIPSE"} else data.size
-        return AreaLight(name, pos, m[:3, 0] * data.size, m[:3, 1] * size_v, down, color * data.energy,
-                         round=data.shape in {"DISK", "ELLIPSE"})
+        light = AreaLight(name, pos, m[:3, 0] * data.size, m[:3, 1] * size_v, down, power,
+                          round=data.shape in {"DISK", "ELLIPSE"})
+        if not normalize:
+            light.power = light.power * light.area
+        return light
     warnings.append(f"light {name!r}: type {data.type} is not supported; skipped")
     return None
 

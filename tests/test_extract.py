@@ -146,6 +146,17 @@ def test_lights_in_blender_units(bpy):
     assert np.allclose(area.center, [1, 2, 3])
 
 
+def test_light_exposure_and_unnormalized_power(bpy):
+    for name, normalize in (("Normal", True), ("Raw", False)):
+        data = bpy.data.lights.new(name, "AREA")
+        data.energy, data.size, data.exposure, data.normalize = 10, 2, 1.0, normalize
+        bpy.context.scene.collection.objects.link(bpy.data.objects.new(name, data))
+    scene, _ = extracted(bpy)
+    lights = {l.name: l for l in scene.lights}
+    assert np.allclose(lights["Normal"].power, 20)  # exposure 1 doubles
+    assert np.allclose(lights["Raw"].radiance, 20 / np.pi)  # not divided by the 4 m^2 area
+
+
 def test_camera_and_world(bpy):
     scene_bpy = bpy.context.scene
     cam = scene_bpy.camera.data
