@@ -1,6 +1,6 @@
 """Direct diffuse lighting by next-event estimation: Cycles' ``Diffuse Direct`` pass.
 
-For each G-buffer hit, ``samples`` light samples: a light chosen in proportion to its power (``LightSet``), a point
+For each shading point, ``samples`` light samples: a light chosen in proportion to its power (``LightSet``), a point
 or direction on it, one shadow ray. The result is the outgoing radiance of a white Lambertian surface,
 (1/pi) * integral L_i cos(theta) d omega, which is how Cycles defines the pass (light reflected by the diffuse
 BSDF, divided by the diffuse colour).
@@ -14,15 +14,15 @@ from .sampling import dot
 RAYS_PER_BATCH = 1 << 20
 
 
-def diffuse_direct(gbuf, lights, tracer, samples: int, rng: np.random.Generator) -> np.ndarray:
-    """(K,3) direct diffuse radiance per G-buffer hit, averaged over ``samples`` light samples."""
-    k = len(gbuf)
+def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """(K,3) direct diffuse radiance at each point of a ``Surface``, averaged over ``samples`` light samples."""
+    k = len(surface)
     out = np.zeros((k, 3))
     if k == 0 or len(lights) == 0 or samples <= 0:
         return out
-    p = gbuf.position
-    ng = gbuf.geometric_normal
-    ns = gbuf.shading_normal
+    p = surface.position
+    ng = surface.geometric_normal
+    ns = surface.shading_normal
     for lo in range(0, k, max(1, RAYS_PER_BATCH // samples)):
         hi = min(k, lo + max(1, RAYS_PER_BATCH // samples))
         idx = np.repeat(np.arange(lo, hi), samples)

@@ -1,10 +1,8 @@
 """The G-buffer: what the camera sees at several filter-distributed samples per pixel.
 
 For a block of pixels it traces ``spp`` primary rays per pixel (stratified sub-pixel positions warped by the pixel
-filter, see ``camera.py``) and keeps, for the samples that hit, the surface position, the geometric and shading
-normals turned toward the viewer (surfaces are two-sided, as in Cycles), UV, material terms and emission. Passes
-are formed by ``splat``: the mean over a pixel's samples, misses counting as zero, exactly like Cycles' film with
-a transparent background.
+filter, see ``camera.py``) and keeps the ``Surface`` of the samples that hit. Passes are formed by ``splat``: the
+mean over a pixel's samples, misses counting as zero, exactly like Cycles' film with a transparent background.
 """
 from __future__ import annotations
 
@@ -12,8 +10,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sampling import dot, normalize, stratified_2d
-from .textures import sample_bilinear
+from .sampling import stratified_2d
+from .surface import Surface, shade
 
 
 @dataclass
@@ -21,16 +19,8 @@ class GBuffer:
     pixels: np.ndarray  # (P,) flat pixel indices (row-major, row 0 at the top) covered by this block
     spp: int
     sample: np.ndarray  # (K,) index of each hit among the P*spp samples (sample // spp = position in pixels)
-    position: np.ndarray  # (K,3)
-    geometric_normal: np.ndarray  # (K,3) facing the viewer
-    shading_normal: np.ndarray  # (K,3) facing the viewer's side
+    surface: Surface  # (K,) what each hit sees
     wo: np.ndarray  # (K,3) unit direction toward the viewer
-    prim: np.ndarray  # (K,) triangle index
-    material: np.ndarray  # (K,) material index
-    albedo: np.ndarray  # (K,3) diffuse albedo (Cycles' Diffuse Color)
-    roughness: np.ndarray  # (K,)
-    metallic: np.ndarray  # (K,)
-    emission: np.ndarray  # (K,3)
 
     @staticmethod
     def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
@@ -44,38 +34,16 @@ class GBuffer:
         origins = origins + dirs * near[:, None]
         hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
         sample = np.nonzero(hits.hit)[0]
-        prim = hits.prim[sample]
-        b1, b2 = hits.u[sample][:, None], hits.v[sample][:, None]
-        b0 = 1.0 - b1 - b2
-        tri = scene.triangles[prim].astype(np.float64)
-        position = b0 * tri[:, 0] + b1 * tri[:, 1] + b2 * tri[:, 2]
-        wo = -dirs[sample]
-        ng = scene.geometric_normals[prim] if len(prim) else np.zeros((0, 3))
-        flip = dot(ng, wo) < 0.0
-        ng = np.where(flip[:, None], -ng, ng)
-        cn = scene.normals[prim].astype(np.float64)
-        ns = normalize(b0 * cn[:, 0] + b1 * cn[:, 1] + b2 * cn[:, 2])
-        ns = np.where(flip[:, None], -ns, ns)
-        ns = np.where((dot(ns, ns) > 0.5)[:, None], ns, ng)
-        mat = scene.material[prim]
-        m = scene.materials
-        base = m.base_color[mat].astype(np.float64)
-        tex_ids = m.texture[mat]
-        if (tex_ids >= 0).any():
-            uv_c = scene.uvs[prim].astype(np.float64)
-            uv = b0 * uv_c[:, 0] + b1 * uv_c[:, 1] + b2 * uv_c[:, 2]
-            for t in np.unique(tex_ids[tex_ids >= 0]):
-                sel = tex_ids == t
-                base[sel] = sample_bilinear(scene.textures[t], uv[sel])[:, :3]
-        metallic = m.metallic[mat].astype(np.float64)
-        return GBuffer(pixels=pixels, spp=spp, sample=sample, position=position, geometric_normal=ng,
-                       shading_normal=ns, wo=wo, prim=prim, material=mat,
-                       albedo=np.clip(base, 0.0, 1.0) * (1.0 - metallic)[:, None],
-                       roughness=m.roughness[mat].astype(np.float64), metallic=metallic,
-                       emission=m.emission[mat].astype(np.float64))
+        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
+                       wo=-dirs[sample])
 
     def __len__(self):
         return len(self.sample)
+
+    @property
+    def pixel_of_hit(self) -> np.ndarray:
+        """(K,) flat image index of each hit's pixel."""
+        return self.pixels[self.sample // self.spp]
 
     def splat(self, values: np.ndarray) -> np.ndarray:
         """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film."""

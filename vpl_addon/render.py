@@ -80,16 +80,16 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         t = time.perf_counter()
         gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
         t_gbuffer = time.perf_counter() - t
-        direct = diffuse_direct(gbuf, lights, tracer, settings.light_samples, rng) if need_direct else 0.0
+        direct = diffuse_direct(gbuf.surface, lights, tracer, settings.light_samples, rng) if need_direct else 0.0
         t_direct = time.perf_counter() - t - t_gbuffer
-        images[P.COMBINED][pixels, :3] = gbuf.splat(gbuf.albedo * direct + gbuf.emission)
+        images[P.COMBINED][pixels, :3] = gbuf.splat(gbuf.surface.albedo * direct + gbuf.surface.emission)
         images[P.COMBINED][pixels, 3] = gbuf.coverage
         if P.DIFFUSE_DIRECT in want:
-            images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, gbuf.albedo.shape))
+            images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, gbuf.surface.albedo.shape))
         if P.DIFFUSE_COLOR in want:
-            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(gbuf.albedo)
+            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(gbuf.surface.albedo)
         if P.EMIT in want:
-            images[P.EMIT][pixels] = gbuf.splat(gbuf.emission)
+            images[P.EMIT][pixels] = gbuf.splat(gbuf.surface.emission)
         return t_gbuffer, t_direct
 
     try:
