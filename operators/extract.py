@@ -181,23 +181,26 @@ def _light(obj, matrix, warnings):
     if getattr(data, "use_nodes", False):
         warnings.append(f"light {name!r}: light nodes are not supported; using colour and power alone")
     power = np.array(data.color[:3], np.float64) * data.energy * 2.0 ** getattr(data, "exposure", 0.0)
-    normalize = getattr(data, "normalize", True)  # off: power is radiance-like, not divided by the light's area
+    normalize = getattr(data, "normalize", True)  # off: power is radiance-like, not divided by the light's size
     if data.type in {"POINT", "SPOT"}:
         radius = data.shadow_soft_size
-        if not normalize and radius > 0:
-            power = power * math.pi * radius * radius
+        if not normalize:  # Cycles: intensity P / pi (radius 0) or radiance P / pi (radius R)
+            power = power * (4.0 * math.pi * radius * radius if radius > 0 else 4.0)
+        soft = getattr(data, "use_soft_falloff", True)
         if data.type == "POINT":
-            return PointLight(name, pos, power, radius=radius)
-        return SpotLight(name, pos, power, radius=radius, direction=down, spot_size=data.spot_size,
-                         spot_blend=data.spot_blend)
+            return PointLight(name, pos, power, radius=radius, soft_falloff=soft)
+        return SpotLight(name, pos, power, radius=radius, soft_falloff=soft, direction=down,
+                         spot_size=data.spot_size, spot_blend=data.spot_blend,
+                         inverse_basis=np.linalg.inv(m[:3, :3]) if abs(np.linalg.det(m[:3, :3])) > 1e-300 else None)
     if data.type == "SUN":
+        half = 0.5 * data.angle
+        if not normalize and half > 0:  # radiance S instead of irradiance S
+            power = power * math.pi * math.sin(half) ** 2
         return SunLight(name, down, power, angle=data.angle)
     if data.type == "AREA":
-        if getattr(data, "spread", math.pi) < math.pi - 1e-4:
-            warnings.append(f"light {name!r}: spread below 180 degrees is not supported; rendered as 180")
         size_v = data.size_y if data.shape in {"RECTANGLE", "ELLIPSE"} else data.size
         light = AreaLight(name, pos, m[:3, 0] * data.size, m[:3, 1] * size_v, down, power,
-                          round=data.shape in {"DISK", "ELLIPSE"})
+                          round=data.shape in {"DISK", "ELLIPSE"}, spread=getattr(data, "spread", math.pi))
         if not normalize:
             light.power = light.power * light.area
         return light

@@ -2,6 +2,8 @@
 
 The camera looks straight down at a floor through a 2 cm window, so every pixel sees (almost) the point below the
 light and ``Diffuse Direct`` must equal E / pi there."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -34,9 +36,36 @@ def test_point_light_is_power_over_four_pi():
     assert value == pytest.approx(100.0 / (4 * np.pi) / H ** 2 / np.pi, rel=2e-3)
 
 
-def test_sphere_light_matches_point_light_of_same_power():
-    value, _ = diffuse_direct(plane_scene([PointLight("p", [0, 0, H], [100.0] * 3, radius=0.3)], view=0.02))
+def test_hard_sphere_light_matches_point_light_of_same_power():
+    light = PointLight("p", [0, 0, H], [100.0] * 3, radius=0.3, soft_falloff=False)
+    value, _ = diffuse_direct(plane_scene([light], view=0.02))
     assert value == pytest.approx(100.0 / (4 * np.pi) / H ** 2 / np.pi, rel=1e-2)
+
+
+def test_soft_falloff_light_is_a_facing_disc():
+    """Blender's default soft falloff, as measured in Cycles: P / (4 pi^2) cos / (d^2 + R^2)."""
+    value, _ = diffuse_direct(plane_scene([PointLight("p", [0, 0, H], [100.0] * 3, radius=0.5)], view=0.02))
+    assert value == pytest.approx(100.0 / (4 * np.pi ** 2) / (H ** 2 + 0.25), rel=1e-2)
+
+
+def test_scaled_spot_has_an_elliptic_cone():
+    """Scaling a spot's local x by 4 squeezes its cone along x: a point 40 degrees off axis along x is lit,
+    the same angle along y is not."""
+    basis = np.diag([4.0, 1.0, 1.0])
+    spot = SpotLight("s", [0, 0, H], [100.0] * 3, direction=[0, 0, -1], spot_size=np.radians(60), spot_blend=0.0,
+                     inverse_basis=np.linalg.inv(basis))
+    off = np.tan(np.radians(40)) * H
+    along_x = diffuse_direct(plane_scene([replace(spot, position=[-off, 0, H])], view=0.02))[0]
+    along_y = diffuse_direct(plane_scene([replace(spot, position=[0, -off, H])], view=0.02))[0]
+    assert along_x > 0.0 and along_y == 0.0
+
+
+@pytest.mark.parametrize("spread", [np.radians(30), np.radians(90), np.pi])
+def test_area_spread_profile_keeps_the_emitted_power(spread):
+    light = AreaLight("a", [0, 0, 0], [1, 0, 0], [0, 1, 0], [0, 0, -1], [1.0] * 3, spread=spread)
+    phi = np.linspace(0, np.pi / 2, 200001)
+    integrand = light.spread_profile(np.cos(phi)) * np.cos(phi) * np.sin(phi) * 2 * np.pi
+    assert np.trapz(integrand, phi) == pytest.approx(np.pi, rel=1e-3)  # a Lambertian lobe integrates to pi
 
 
 @pytest.mark.parametrize("size, blend, expected_fraction", [

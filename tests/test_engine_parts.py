@@ -58,7 +58,7 @@ def test_view_window_shift_is_a_fraction_of_the_fitted_side():
     assert np.allclose([x0, x1], [-2 + 1.0, 2 + 1.0]) and np.allclose([y0, y1], [-1.25 - 0.4, 1.25 - 0.4])
 
 
-@pytest.mark.parametrize("kind, width, support", [("BOX", 1.0, 0.5), ("BLACKMAN_HARRIS", 1.5, 1.5),
+@pytest.mark.parametrize("kind, width, support", [("BOX", 1.0, 0.5), ("BOX", 3.0, 0.5), ("BLACKMAN_HARRIS", 1.5, 1.5),
                                                   ("GAUSSIAN", 1.5, 2.25)])
 def test_pixel_filter_tables_are_symmetric_and_within_support(kind, width, support):
     table = filter_inverse_cdf(kind, width)

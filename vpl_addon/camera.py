@@ -5,7 +5,8 @@ the image along that axis; AUTO fits the sensor width to the larger image dimens
 fitted extent. Pixel (i, j), i from the left and j from the TOP, covers [i, i+1] x [j, j+1] of the plane.
 
 Pixel filter (Cycles ``scene/film.cpp``): samples are importance-sampled from the filter, each weighing 1.
-Box spans [-w/2, w/2], Blackman-Harris [-w, w] (Cycles evaluates it at twice the width), Gaussian [-1.5w, 1.5w].
+Box is always one pixel wide whatever the width (measured), Blackman-Harris spans [-w, w] (Cycles evaluates it at
+twice the width), Gaussian exp(-8 u^2 / w^2) is tabulated over [-1.5w, 1.5w].
 """
 from __future__ import annotations
 
@@ -44,7 +45,7 @@ def view_window(width: int, height: int, *, orthographic: bool, lens: float = 50
 def filter_inverse_cdf(kind: str, width: float, size: int = FILTER_TABLE_SIZE) -> np.ndarray:
     """Table mapping u in [0,1] (``size`` uniform steps) to a sub-pixel offset distributed as the filter."""
     if kind == "BOX" or width <= 0.0:
-        return (np.linspace(0.0, 1.0, size) - 0.5) * max(width, 0.0)
+        return np.linspace(0.0, 1.0, size) - 0.5
     half = width if kind == "BLACKMAN_HARRIS" else 1.5 * width
     x = np.linspace(-half, half, 4 * size + 1)
     if kind == "BLACKMAN_HARRIS":

@@ -13,6 +13,10 @@ by ``tests/test_cycles_direct.py``:
 ``sample_incident(p, n, u1, u2)`` returns, for shading points p with normals n, unit directions toward the light,
 the distance to the sampled light point (inf for distant lights), and L_e / pdf in solid angle: the estimator of
 the direct diffuse term is then ``le_over_pdf * max(0, n.wi) / pi * V``.
+
+``emit(count, rng, center, radius)`` starts light paths (Keller's Instant Radiosity): origins, unit directions and
+the power each carries (emitted radiance over the joint pdf of position and direction, so the mean over paths is the
+light's total power). Distant lights (sun, world) emit from a disc covering the scene's bounding sphere.
 """
 from __future__ import annotations
 
@@ -20,8 +24,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .sampling import (concentric_disk, cosine_hemisphere, dot, normalize, sample_cdf, triangle_barycentrics,
-                       uniform_cone)
+from .sampling import (concentric_disk, cosine_hemisphere, dot, normalize, orthonormal_basis, sample_cdf,
+                       triangle_barycentrics, uniform_cone)
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -31,23 +35,45 @@ def smoothstep(x: np.ndarray) -> np.ndarray:
     return x * x * (3.0 - 2.0 * x)
 
 
-def _sphere_sample(p, center, radius, u1, u2):
-    """Uniform cone sampling of the sphere seen from p: (wi, dist, solid angle / (pi R^2) or 1/d^2 factor)."""
+def _round_light_sample(p, center, radius, soft, u1, u2):
+    """Cone sampling of a round light of radius R seen from p: (wi, dist, 2 pi (1 - cos a) / (pi R^2)).
+
+    ``soft`` (Cycles' default "soft falloff") makes the light a disc that always faces p, cone half-angle
+    atan(R/d); otherwise it is a sphere, asin(R/d). The last value times the light's intensity is L_e / pdf.
+    """
     to_c = center - p
     d2 = dot(to_c, to_c)
     d = np.sqrt(d2)
     axis = to_c / np.maximum(d, 1e-300)[:, None]
     if radius <= 0.0:
         return axis, d, 1.0 / np.maximum(d2, 1e-300)
-    sin2 = np.minimum(radius * radius / np.maximum(d2, 1e-300), 1.0)
-    one_minus_cos = sin2 / (1.0 + np.sqrt(1.0 - sin2))  # 1 - cos(theta_max) without cancellation
+    r2 = radius * radius
+    if soft:
+        sin2 = r2 / np.maximum(d2 + r2, 1e-300)
+    else:
+        sin2 = np.minimum(r2 / np.maximum(d2, 1e-300), 1.0)
+    one_minus_cos = sin2 / (1.0 + np.sqrt(1.0 - sin2))  # 1 - cos(a) without cancellation
     wi = uniform_cone(u1, u2, axis, 1.0 - one_minus_cos)
-    # distance to the near side of the sphere along wi (law of cosines)
     b = dot(wi, to_c)
-    disc = np.maximum(radius * radius - (d2 - b * b), 0.0)
-    dist = np.maximum(b - np.sqrt(disc), 0.0)
-    # L_e / pdf = I / (pi R^2) * 2 pi (1 - cos theta_max)
-    return wi, dist, 2.0 * one_minus_cos / (radius * radius)
+    if soft:  # the facing disc lies at distance d along the axis
+        dist = d / np.maximum(b / np.maximum(d, 1e-300), 1e-12)
+    else:  # near side of the sphere (law of cosines); inside it the light is right here
+        dist = np.maximum(b - np.sqrt(np.maximum(r2 - (d2 - b * b), 0.0)), 0.0)
+    return wi, dist, 2.0 * one_minus_cos / r2
+
+
+def uniform_sphere(rng, count):
+    z = 1.0 - 2.0 * rng.random(count)
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = 2.0 * np.pi * rng.random(count)
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
+
+
+def _disc_facing(rng, dirs, center, radius):
+    """Origins on discs of the given radius perpendicular to each travel direction, upstream of the scene."""
+    x, y = concentric_disk(rng.random(len(dirs)), rng.random(len(dirs)))
+    t, b = orthonormal_basis(dirs)
+    return center + radius * (x[:, None] * t + y[:, None] * b) - 2.0 * radius * dirs
 
 
 class Light:
@@ -66,6 +92,9 @@ class Light:
     def sample_incident(self, p, n, u1, u2):
         raise NotImplementedError
 
+    def emit(self, count, rng, center, radius):
+        raise NotImplementedError
+
 
 @dataclass
 class PointLight(Light):
@@ -73,6 +102,7 @@ class PointLight(Light):
     position: np.ndarray
     power: np.ndarray  # RGB watts (colour x energy)
     radius: float = 0.0
+    soft_falloff: bool = True  # Blender's default: the light acts as a disc facing the shading point
 
     def __post_init__(self):
         self.position = np.asarray(self.position, np.float64)
@@ -86,12 +116,23 @@ class PointLight(Light):
     def flux_estimate(self, scene_radius):
         return float(self.power @ LUMINANCE) if np.isfinite(self.position).all() else 0.0
 
-    def attenuation(self, wi: np.ndarray) -> np.ndarray:
-        return np.ones(len(wi))
+    def attenuation(self, out_dirs: np.ndarray) -> np.ndarray:
+        """Emission profile along directions leaving the light (1 for a point light)."""
+        return np.ones(len(out_dirs))
 
     def sample_incident(self, p, n, u1, u2):
-        wi, dist, factor = _sphere_sample(p, self.position, self.radius, u1, u2)
-        return wi, dist, (factor * self.attenuation(wi))[:, None] * self.intensity
+        wi, dist, factor = _round_light_sample(p, self.position, self.radius, self.soft_falloff, u1, u2)
+        return wi, dist, (factor * self.attenuation(-wi))[:, None] * self.intensity
+
+    def emit(self, count, rng, center, radius):
+        if self.radius > 0.0:  # a uniformly emitting sphere: point on it, cosine direction outward
+            normal = uniform_sphere(rng, count)
+            dirs, _ = cosine_hemisphere(rng.random(count), rng.random(count), normal)
+            origins = self.position + self.radius * normal
+        else:
+            dirs = uniform_sphere(rng, count)
+            origins = np.broadcast_to(self.position, (count, 3)).copy()
+        return origins, dirs, self.attenuation(dirs)[:, None] * self.power
 
 
 @dataclass
@@ -99,15 +140,21 @@ class SpotLight(PointLight):
     direction: np.ndarray = field(default_factory=lambda: np.array([0.0, 0.0, -1.0]))
     spot_size: float = np.pi / 4  # full cone angle
     spot_blend: float = 0.15
+    # inverse of the light object's 3x3 world matrix: non-uniform scale reshapes the cone (None: unscaled)
+    inverse_basis: np.ndarray | None = None
 
     def __post_init__(self):
         super().__post_init__()
         self.direction = normalize(np.asarray(self.direction, np.float64))
 
-    def attenuation(self, wi):
-        """Cycles' cone: smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend)), a = angle to the axis."""
+    def attenuation(self, out_dirs):
+        """Cycles' cone: smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend)), a = angle to the axis,
+        measured in the light's local frame (so a scaled spot has an elliptic cone)."""
         cos_half = np.cos(0.5 * self.spot_size)
-        cos_a = dot(-wi, self.direction)
+        if self.inverse_basis is None:
+            cos_a = dot(out_dirs, self.direction)
+        else:
+            cos_a = -normalize(out_dirs @ np.asarray(self.inverse_basis).T)[:, 2]
         smooth = (1.0 - cos_half) * self.spot_blend
         if smooth <= 0.0:
             return (cos_a > cos_half).astype(np.float64)
@@ -141,6 +188,16 @@ class SunLight(Light):
         scale = 2.0 * one_minus_cos / np.sin(half) ** 2
         return wi, np.full(count, np.inf), np.broadcast_to(self.strength * scale, (count, 3)).copy()
 
+    def emit(self, count, rng, center, radius):
+        half = 0.5 * self.angle
+        axis = np.broadcast_to(self.direction, (count, 3))
+        if half <= 1e-6:
+            dirs = axis.copy()
+        else:
+            dirs = uniform_cone(rng.random(count), rng.random(count), axis, np.cos(half))
+        origins = _disc_facing(rng, dirs, center, radius)
+        return origins, dirs, np.broadcast_to(self.strength * np.pi * radius * radius, (count, 3)).copy()
+
 
 @dataclass
 class AreaLight(Light):
@@ -151,6 +208,7 @@ class AreaLight(Light):
     normal: np.ndarray  # emitting side: the light object's local -Z
     power: np.ndarray  # RGB watts
     round: bool = False  # disk / ellipse instead of square / rectangle
+    spread: float = np.pi  # full angle of the emission cone; below pi light is focused along the normal
 
     def __post_init__(self):
         self.center = np.asarray(self.center, np.float64)
@@ -167,6 +225,17 @@ class AreaLight(Light):
     @property
     def radiance(self) -> np.ndarray:
         return self.power / (np.pi * self.area)
+
+    def spread_profile(self, cos_phi: np.ndarray) -> np.ndarray:
+        """Cycles' spread: max(0, tan h - tan phi) / (tan h sin^2 h - h + sin h cos h), h = spread / 2, which
+        keeps the emitted power; 1 (pure Lambertian) at 180 degrees."""
+        h = 0.5 * float(np.clip(self.spread, np.radians(1.0), np.pi))
+        if h >= 0.5 * np.pi - 1e-6:
+            return np.ones_like(cos_phi)
+        c = np.clip(cos_phi, 1e-9, 1.0)
+        tan_phi = np.sqrt(1.0 - c * c) / c
+        norm = np.tan(h) * np.sin(h) ** 2 - h + np.sin(h) * np.cos(h)
+        return np.maximum(np.tan(h) - tan_phi, 0.0) / norm
 
     def flux_estimate(self, scene_radius):
         ok = self.area > 0.0 and np.isfinite(self.center).all() and np.isfinite(self.normal).all()
@@ -187,8 +256,13 @@ class AreaLight(Light):
         dist = np.sqrt(d2)
         wi = to_l / np.maximum(dist, 1e-300)[:, None]
         cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
-        factor = cos_l * self.area / np.maximum(d2, 1e-300)
+        factor = cos_l * self.spread_profile(cos_l) * self.area / np.maximum(d2, 1e-300)
         return wi, dist, factor[:, None] * self.radiance
+
+    def emit(self, count, rng, center, radius):
+        origins = self.sample_points(rng.random(count), rng.random(count))
+        dirs, cos = cosine_hemisphere(rng.random(count), rng.random(count), np.broadcast_to(self.normal, (count, 3)))
+        return origins, dirs, self.spread_profile(cos)[:, None] * self.power
 
 
 class EmissiveTriangles(Light):
@@ -237,6 +311,18 @@ class EmissiveTriangles(Light):
         factor = cos_l / np.maximum(d2 * pdf_area, 1e-300)
         return wi, dist, factor[:, None] * self.radiance[idx], self.normals[idx]
 
+    def emit(self, count, rng, center, radius):
+        idx = sample_cdf(self.cdf, rng.random(count))
+        b1, b2 = triangle_barycentrics(rng.random(count), rng.random(count))
+        tri = self.triangles[idx]
+        origins = tri[:, 0] + b1[:, None] * (tri[:, 1] - tri[:, 0]) + b2[:, None] * (tri[:, 2] - tri[:, 0])
+        side = np.where(rng.random(count) < 0.5, 1.0, -1.0)[:, None] * self.normals[idx]
+        dirs, _ = cosine_hemisphere(rng.random(count), rng.random(count), side)
+        # radiance x pi (cosine lobe) x area / p(triangle), times 2 for the side chosen with probability 1/2
+        power = self.radiance[idx] * (2.0 * np.pi * self.areas[idx] / np.maximum(self.prob[idx], 1e-300))[:, None]
+        origins = origins + side * (1e-7 * max(radius, 1e-30))
+        return origins, dirs, power
+
 
 class WorldLight(Light):
     """Constant background radiance, sampled with the cosine lobe of the receiver."""
@@ -254,6 +340,12 @@ class WorldLight(Light):
         factor = np.pi / np.maximum(cos, 1e-12)
         return wi, np.full(len(p), np.inf), factor[:, None] * self.radiance
 
+    def emit(self, count, rng, center, radius):
+        dirs = uniform_sphere(rng, count)
+        origins = _disc_facing(rng, dirs, center, radius)
+        return origins, dirs, np.broadcast_to(self.radiance * 4.0 * np.pi * np.pi * radius * radius,
+                                              (count, 3)).copy()
+
 
 class LightSet:
     """Every emitter of a scene with a selection CDF proportional to estimated power."""
@@ -261,6 +353,7 @@ class LightSet:
     def __init__(self, scene):
         lo, hi = scene.bounds
         radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-12)
+        self.center, self.radius = 0.5 * (lo + hi), radius
         lights: list[Light] = list(scene.lights)
         emissive = EmissiveTriangles.from_scene(scene)
         if emissive is not None:
@@ -278,6 +371,21 @@ class LightSet:
 
     def __len__(self):
         return len(self.lights)
+
+    def emit(self, count: int, rng: np.random.Generator, prob: np.ndarray | None = None):
+        """``count`` light-path starts, lights chosen with ``prob`` (default: by power); power is divided by the
+        selection probability, so the mean over paths estimates the total emitted power."""
+        prob = self.prob if prob is None else prob
+        cdf = np.cumsum(prob)
+        cdf[-1] = 1.0
+        choice = sample_cdf(cdf, rng.random(count))
+        origins, dirs, power = np.zeros((count, 3)), np.zeros((count, 3)), np.zeros((count, 3))
+        for index, light in enumerate(self.lights):
+            m = np.nonzero(choice == index)[0]
+            if len(m):
+                o, d, w = light.emit(len(m), rng, self.center, self.radius)
+                origins[m], dirs[m], power[m] = o, d, w / prob[index]
+        return origins, dirs, power
 
     def sample_incident(self, p, n, u_select, u1, u2):
         """One light sample per point: (wi, dist, L_e / pdf including 1/p_select, normal at the light point).
