@@ -274,7 +274,9 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     else:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
+    cycles = getattr(scene, "cycles", None)
+    bounces = min(cycles.max_bounces, cycles.diffuse_bounces) if cycles is not None else 8
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(names) or ["none"], world=_world(scene, warnings),
-                        textures=materials.textures)
+                        textures=materials.textures, max_bounces=bounces)
     return built, warnings

@@ -372,6 +372,15 @@ class LightSet:
     def __len__(self):
         return len(self.lights)
 
+    def only(self, index: int) -> "LightSet":
+        """The same set restricted to light ``index`` (chosen with probability 1)."""
+        single = object.__new__(LightSet)
+        single.center, single.radius = self.center, self.radius
+        single.lights = [self.lights[index]]
+        single.prob = np.ones(1)
+        single.cdf = np.ones(1)
+        return single
+
     def emit(self, count: int, rng: np.random.Generator, prob: np.ndarray | None = None):
         """``count`` light-path starts, lights chosen with ``prob`` (default: by power); power is divided by the
         selection probability, so the mean over paths estimates the total emitted power."""

@@ -1,8 +1,11 @@
-"""The pipeline of one frame: Scene -> Tracer -> G-buffer blocks -> direct light -> passes.
+"""The pipeline of one frame: Scene -> Tracer -> (method places VPLs) -> G-buffer blocks -> direct light and the
+gather -> filter -> passes.
 
 Pixels are processed in blocks, concurrently on all cores, so memory stays flat at any resolution and sample
-count; each block draws its random numbers from ``(seed, block)`` so a render is deterministic. ``progress(fraction, text)`` is called after
-each block and may return False to cancel (ESC in Blender), which raises ``Cancelled``.
+count; each block draws its random numbers from ``(seed, block)`` so a render is deterministic. ``progress(fraction,
+text)`` is called after each block and may return False to cancel (ESC in Blender), which raises ``Cancelled``.
+Work a pass does not need is skipped: no lights, no shadow rays and no VPLs; no ``Diffuse Indirect`` requested (or
+method "none"), no VPLs.
 """
 from __future__ import annotations
 
@@ -15,9 +18,12 @@ from typing import Callable
 import numpy as np
 
 from . import passes as P
+from .bilateral import deinterleave
 from .direct import diffuse_direct
+from .gather import GatherSettings, clamp_distance, gather
 from .gbuffer import GBuffer
 from .lights import LightSet
+from .methods import METHODS, MethodContext, MethodSettings, place
 from .tracer import Tracer
 
 
@@ -31,6 +37,11 @@ class RenderSettings:
     light_samples: int = 4  # next-event samples per camera sample for direct light
     seed: int = 0
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
+    method: str = "bidir"  # how VPLs are placed: ir, bidir, or none (no indirect light)
+    indirect_samples: int = 4  # camera samples per pixel that gather from the VPLs
+    placement: MethodSettings = field(default_factory=MethodSettings)
+    gather: GatherSettings = field(default_factory=GatherSettings)
+    max_bounces: int | None = None  # None: the scene's bounce limit
     block_pixels: int = 4096
 
     def __post_init__(self):
@@ -38,6 +49,12 @@ class RenderSettings:
             raise ValueError(f"samples must be at least 1 (got {self.samples})")
         if self.light_samples < 0:
             raise ValueError(f"light samples must not be negative (got {self.light_samples})")
+        if self.indirect_samples < 1:
+            raise ValueError(f"indirect samples must be at least 1 (got {self.indirect_samples})")
+        if self.method != "none" and self.method not in METHODS:
+            raise ValueError(f"unknown method {self.method!r}; choose one of none, {', '.join(METHODS)}")
+        if self.placement.vpls < 1:
+            raise ValueError(f"the VPL budget must be at least 1 (got {self.placement.vpls})")
         unknown = [p for p in self.passes if p not in P.CHANNELS]
         if unknown:
             raise ValueError(f"unknown pass {unknown[0]!r}; known passes: {', '.join(P.ALL)}")
@@ -46,9 +63,18 @@ class RenderSettings:
 @dataclass
 class RenderResult:
     passes: dict[str, np.ndarray]  # name -> (H,W,C) float32, row 0 at the top
-    seconds: dict[str, float] = field(default_factory=dict)  # stage -> wall seconds
+    seconds: dict[str, float] = field(default_factory=dict)  # stage -> seconds (blocks: summed over threads)
     rays: int = 0
     warnings: list[str] = field(default_factory=list)
+    info: dict = field(default_factory=dict)  # what the method reports (paths traced, reverse share, ...)
+
+
+def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
+    """World-space width of one pixel at the given points (perspective: grows with distance)."""
+    size = (camera.window[1] - camera.window[0]) / camera.width
+    if camera.orthographic:
+        return np.full(len(position), size)
+    return np.linalg.norm(position - camera.position, axis=1) * size
 
 
 def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None) -> RenderResult:
@@ -66,46 +92,98 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
 
     want = set(settings.passes) | {P.COMBINED}
     need_direct = bool({P.DIFFUSE_DIRECT, P.COMBINED} & want) and len(lights) > 0
-    images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want}
-    starts = list(range(0, w * h, settings.block_pixels))
-    timing = {"gbuffer": 0.0, "direct": 0.0}
-    cancelled = threading.Event()
-
-    def shade_block(number: int):
-        """Everything for one block of pixels; blocks run concurrently (numpy and embree release the GIL)."""
-        if cancelled.is_set():
-            return 0.0, 0.0
-        pixels = np.arange(starts[number], min(starts[number] + settings.block_pixels, w * h))
-        rng = np.random.default_rng([settings.seed, number])
-        t = time.perf_counter()
-        gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
-        t_gbuffer = time.perf_counter() - t
-        direct = diffuse_direct(gbuf.surface, lights, tracer, settings.light_samples, rng) if need_direct else 0.0
-        t_direct = time.perf_counter() - t - t_gbuffer
-        images[P.COMBINED][pixels, :3] = gbuf.splat(gbuf.surface.albedo * direct + gbuf.surface.emission)
-        images[P.COMBINED][pixels, 3] = gbuf.coverage
-        if P.DIFFUSE_DIRECT in want:
-            images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, gbuf.surface.albedo.shape))
-        if P.DIFFUSE_COLOR in want:
-            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(gbuf.surface.albedo)
-        if P.EMIT in want:
-            images[P.EMIT][pixels] = gbuf.splat(gbuf.surface.emission)
-        return t_gbuffer, t_direct
-
+    bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
+    need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
+        settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
+    vpls, d_min, permutation = None, 0.0, None
     try:
+        if need_indirect:
+            t0 = time.perf_counter()
+            context = MethodContext(scene, tracer, lights, np.random.default_rng([settings.seed, 1 << 20]), bounces)
+            vpls, result.info = place(settings.method, context, settings.placement)
+            d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
+            permutation = context.rng.permutation(len(vpls))
+            result.seconds["place"] = time.perf_counter() - t0
+            need_indirect = len(vpls) > 0
+
+        images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want | {P.DIFFUSE_COLOR}}
+        indirect = np.zeros((w * h, 3))
+        guide_position, guide_normal, guide_count = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros(w * h)
+        starts = list(range(0, w * h, settings.block_pixels))
+        timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
+        cancelled = threading.Event()
+        gather_spp = min(settings.indirect_samples, settings.samples)
+
+        def shade_block(number: int):
+            """Everything for one block of pixels; blocks run concurrently (numpy and embree release the GIL)."""
+            if cancelled.is_set():
+                return {}
+            pixels = np.arange(starts[number], min(starts[number] + settings.block_pixels, w * h))
+            rng = np.random.default_rng([settings.seed, number])
+            marks = {"start": time.perf_counter()}
+            gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
+            surf = gbuf.surface
+            marks["gbuffer"] = time.perf_counter()
+            if need_direct:
+                shift = rng.random((len(pixels), 2))[gbuf.sample // gbuf.spp]
+                direct = diffuse_direct(surf, lights, tracer, settings.light_samples, rng,
+                                        sequence=(gbuf.sample % gbuf.spp, shift))
+            else:
+                direct = 0.0
+            marks["direct"] = time.perf_counter()
+            if need_indirect:
+                rows = np.nonzero(gbuf.sample % gbuf.spp < gather_spp)[0]
+                sub = surf.take(rows)
+                pix = gbuf.pixel_of_hit[rows]
+                light = gather(sub, np.stack([pix % w, pix // w], 1), vpls, tracer, settings.gather, d_min,
+                               permutation)
+                local = (gbuf.sample[rows] // gbuf.spp)
+                for c in range(3):
+                    indirect[pixels, c] = np.bincount(local, weights=light[:, c], minlength=len(pixels)) / gather_spp
+                    guide_position[pixels, c] = np.bincount(local, weights=sub.position[:, c], minlength=len(pixels))
+                    guide_normal[pixels, c] = np.bincount(local, weights=sub.shading_normal[:, c],
+                                                          minlength=len(pixels))
+                guide_count[pixels] = np.bincount(local, minlength=len(pixels))
+            marks["gather"] = time.perf_counter()
+            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + surf.emission)
+            images[P.COMBINED][pixels, 3] = gbuf.coverage
+            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo)
+            if P.DIFFUSE_DIRECT in want:
+                images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, surf.albedo.shape))
+            if P.EMIT in want:
+                images[P.EMIT][pixels] = gbuf.splat(surf.emission)
+            return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
+                    "gather": marks["gather"] - marks["direct"]}
+
         with ThreadPoolExecutor(tracer.threads) as pool:
-            for done, (t_gbuffer, t_direct) in enumerate(pool.map(shade_block, range(len(starts))), start=1):
-                timing["gbuffer"] += t_gbuffer
-                timing["direct"] += t_direct
-                if progress is not None and progress(done / len(starts), "direct light") is False:
+            for done, spent in enumerate(pool.map(shade_block, range(len(starts))), start=1):
+                for stage, seconds in spent.items():
+                    timing[stage] += seconds
+                if progress is not None and progress(done / len(starts), "rendering") is False:
                     cancelled.set()
         if cancelled.is_set():
             raise Cancelled()
     finally:
         tracer.close()
-    result.seconds.update(timing)  # summed over threads: CPU-seconds of each stage
+
+    if need_indirect:
+        t0 = time.perf_counter()
+        if settings.gather.filter and settings.gather.interleave > 1:
+            valid = guide_count > 0
+            count = np.maximum(guide_count, 1)[:, None]
+            position = guide_position / count
+            normal = guide_normal / np.maximum(np.linalg.norm(guide_normal, axis=1, keepdims=True), 1e-300)
+            indirect = deinterleave(indirect.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
+                                    valid.reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
+                                    settings.gather.interleave).reshape(-1, 3)
+        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect
+        timing["filter"] = time.perf_counter() - t0
+        result.info["vpls"] = len(vpls)
+    if P.DIFFUSE_INDIRECT in want:
+        images[P.DIFFUSE_INDIRECT] = indirect
+    result.seconds.update(timing)
     result.rays = tracer.rays_traced
     result.passes = {name: images[name].reshape(h, w, -1).astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}
-    P.check(result.passes, "direct lighting")
+    P.check(result.passes, f"rendering with method {settings.method!r}")
     return result

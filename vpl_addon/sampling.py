@@ -81,14 +81,23 @@ def sample_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
 def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """``per_cell`` jittered 2D points for each of ``count`` cells (pixels), shape (count, per_cell).
 
-    With a square ``per_cell`` the points are one per stratum of a sqrt x sqrt grid (jittered sampling);
-    otherwise they are independent uniform points.
+    With a square ``per_cell`` the points are one per stratum of a sqrt x sqrt grid (jittered sampling), in a random
+    order per cell so that any leading subset is spread over the cell; otherwise they are independent uniform points.
     """
     k = int(round(np.sqrt(per_cell)))
     if k * k != per_cell:
         return rng.random((count, per_cell)), rng.random((count, per_cell))
-    grid = np.arange(per_cell)
-    ix, iy = grid % k, grid // k
-    u = (ix[None, :] + rng.random((count, per_cell))) / k
-    v = (iy[None, :] + rng.random((count, per_cell))) / k
+    order = np.argsort(rng.random((count, per_cell)), axis=1)
+    ix, iy = order % k, order // k
+    u = (ix + rng.random((count, per_cell))) / k
+    v = (iy + rng.random((count, per_cell))) / k
     return u, v
+
+
+R2_ALPHA = 1.0 / np.array([1.32471795724474602596, 1.32471795724474602596 ** 2])  # 1 / plastic number powers
+
+
+def r2_sequence(index: np.ndarray) -> np.ndarray:
+    """Points (N,2) of Roberts' R2 low-discrepancy sequence ("The unreasonable effectiveness of quasirandom
+    sequences", 2018): frac(0.5 + i * (1/g, 1/g^2)), g the plastic number."""
+    return (0.5 + np.asarray(index, np.float64)[:, None] * R2_ALPHA) % 1.0

@@ -70,10 +70,11 @@ class Scene:
     world: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))  # background radiance RGB
     textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3) float32 linear, row 0 = bottom (v = 0)
     dropped: dict[str, int] = field(default_factory=dict)  # object name -> triangles dropped by build()
+    max_bounces: int = 8  # diffuse bounce limit of light paths (Cycles' min(max_bounces, diffuse_bounces))
 
     @staticmethod
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
-              object_id=None, object_names=None, world=(0.0, 0.0, 0.0), textures=()) -> "Scene":
+              object_id=None, object_names=None, world=(0.0, 0.0, 0.0), textures=(), max_bounces=8) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         n = len(tri)
@@ -109,7 +110,8 @@ class Scene:
                      material=material, object_id=object_id.astype(np.int32), object_names=object_names,
                      materials=materials, lights=[l for l in lights if l.is_active], camera=camera,
                      world=np.maximum(np.nan_to_num(np.asarray(world, np.float32), nan=0.0, posinf=0.0), 0.0),
-                     textures=[np.asarray(t, np.float32) for t in textures], dropped=dropped)
+                     textures=[np.asarray(t, np.float32) for t in textures], dropped=dropped,
+                     max_bounces=max(0, int(max_bounces)))
 
     @property
     def geometric_normals(self) -> np.ndarray:
@@ -122,6 +124,10 @@ class Scene:
     def triangle_areas(self) -> np.ndarray:
         tri = self.triangles.astype(np.float64)
         return 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+
+    @property
+    def surface_area(self) -> float:
+        return float(self.triangle_areas.sum())
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:

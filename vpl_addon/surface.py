@@ -5,7 +5,7 @@ Surfaces are two-sided (as in Cycles): both normals are flipped to face the inco
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -27,6 +27,13 @@ class Surface:
 
     def __len__(self):
         return len(self.prim)
+
+    def take(self, rows) -> "Surface":
+        return Surface(*(getattr(self, f.name)[rows] for f in fields(Surface)))
+
+    @staticmethod
+    def concat(parts: list["Surface"]) -> "Surface":
+        return Surface(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Surface)))
 
 
 def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:

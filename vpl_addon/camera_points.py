@@ -1,0 +1,36 @@
+"""Points the camera sees, drawn uniformly over the image: the x_1 of Segovia et al.'s length-2 camera paths.
+
+Misses count as attempts (they see nothing), so ``hit_fraction`` turns means over the hits into means over
+camera samples."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .gbuffer import GBuffer
+from .surface import Surface
+
+
+@dataclass
+class CameraPoints:
+    surface: Surface  # the hits
+    attempts: int  # camera samples drawn, hits and misses
+
+    @property
+    def hit_fraction(self) -> float:
+        return len(self.surface) / self.attempts if self.attempts else 0.0
+
+    def __len__(self):
+        return len(self.surface)
+
+    @staticmethod
+    def sample(scene, tracer, count: int, rng: np.random.Generator) -> "CameraPoints":
+        cam = scene.camera
+        pixels = rng.integers(0, cam.width * cam.height, count)
+        gbuf = GBuffer.build(scene, tracer, pixels, 1, rng)
+        return CameraPoints(gbuf.surface, count)
+
+    def choose(self, count: int, rng: np.random.Generator) -> np.ndarray:
+        """``count`` random indices into the hits (uniform, with replacement)."""
+        return rng.integers(0, len(self.surface), count)

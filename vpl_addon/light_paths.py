@@ -1,0 +1,67 @@
+"""Light paths: photons from the lights with a VPL left at every diffuse bounce (Keller, Instant Radiosity 1997).
+
+Paths start with ``LightSet.emit`` (lights chosen in proportion to power, or by a given distribution such as the
+camera-driven one of Segovia et al. sec. 4.1), bounce with cosine-weighted directions, and end by Russian roulette
+(survival probability = the largest albedo channel) or at the bounce limit. The VPL at a bounce carries the path's
+incident power times albedo / pi; divided by the number of paths (``trace_until``), the whole set estimates the
+indirect light.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .sampling import cosine_hemisphere, dot
+from .surface import shade
+from .virtual_lights import STANDARD, VirtualLights
+
+BATCH_PATHS = 1 << 15
+
+
+def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max_bounces: int,
+                light_prob: np.ndarray | None = None, first_path: int = 0) -> VirtualLights:
+    """VPLs of ``count`` light paths with at most ``max_bounces`` surface interactions (not yet divided by the
+    number of paths)."""
+    if count <= 0 or len(lights) == 0 or max_bounces <= 0:
+        return VirtualLights.empty()
+    origins, dirs, power = lights.emit(count, rng, light_prob)
+    path = np.arange(first_path, first_path + count)
+    found = []
+    for bounce in range(1, max_bounces + 1):
+        if len(origins) == 0:
+            break
+        hits = tracer.intersect(origins, dirs)
+        rows = np.nonzero(hits.hit)[0]
+        surf = shade(scene, dirs, hits, rows)
+        incident = power[rows]
+        found.append(VirtualLights(surf.position, surf.shading_normal, incident * surf.albedo / np.pi,
+                                   np.full(len(rows), bounce, np.int32), np.full(len(rows), STANDARD, np.int8),
+                                   path[rows]))
+        if bounce == max_bounces:
+            break
+        survive = np.clip(surf.albedo.max(axis=1), 0.0, 1.0)
+        keep = rng.random(len(rows)) < survive
+        new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
+        leaves = dot(new_dirs, surf.geometric_normal[keep]) > 0.0  # below the true surface: absorbed
+        sel = np.nonzero(keep)[0][leaves]
+        dirs = new_dirs[leaves]
+        power = incident[sel] * surf.albedo[sel] / survive[sel, None]
+        origins = tracer.offset_origin(surf.position[sel], surf.geometric_normal[sel])
+        path = path[rows][sel]
+    return VirtualLights.concat(found)
+
+
+def trace_until(scene, tracer, lights, target: int, rng, max_bounces: int, light_prob=None):
+    """Standard VPLs from as many paths as it takes to leave about ``target`` of them: (vpls, paths traced).
+
+    Paths are traced in batches sized from the VPLs per path seen so far; the weights are divided by the total
+    number of paths. Gives up after 64 paths per wanted VPL (light that never reaches a surface)."""
+    parts, paths, found = [], 0, 0
+    batch = max(64, target // 4)
+    while found < target and paths < 64 * target + 1024:
+        count = min(batch, BATCH_PATHS)
+        parts.append(trace_paths(scene, tracer, lights, count, rng, max_bounces, light_prob, first_path=paths))
+        paths += count
+        found += len(parts[-1])
+        if found:
+            batch = max(64, int((target - found) * paths / found) + 1)
+    return VirtualLights.concat(parts).scaled(1.0 / max(paths, 1)), paths

@@ -1,0 +1,66 @@
+"""Bidirectional Instant Radiosity (Segovia, Iehl, Mitanchey, Peroche, EGSR 2006).
+
+1. Light selection from the camera (sec. 4.1): ``light_selection``.
+2. N/2 standard VPLs from light paths and N/2 reverse VPLs from length-2 camera paths (sec. 3.1), the latter with
+   the eq. 7 density from M = 5 camera points; each half estimates the indirect light, so both are weighted 1/2.
+3. The power each VPL brings to the camera from M = 10 camera paths; N' = N / r VPLs resampled by that power with a
+   small uniform floor in the CDF (sec. 3.2, 4).
+4. Kept reverse VPLs get their density re-estimated with M = 50 camera points (sec. 4, "a very simple trick").
+
+The budget (``MethodSettings.vpls``) is N', the number of VPLs the gather sees."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .. import reverse_vpls
+from ..camera_points import CameraPoints
+from ..gather import clamp_distance
+from ..light_paths import trace_until
+from ..light_selection import camera_light_distribution
+from ..resampling import camera_power, resample
+from ..virtual_lights import REVERSE, VirtualLights
+
+
+@dataclass
+class BidirSettings:
+    ratio: float = 10.0  # r = N / N'
+    power_paths: int = 10  # M for the power each VPL brings to the camera
+    density_paths_coarse: int = 5  # M of eq. 7 while estimating power
+    density_paths_fine: int = 50  # M of eq. 7 for the kept reverse VPLs
+    cdf_floor: float = 0.01  # uniform quantity added to the resampling CDF, as a fraction of the mean power
+    light_floor: float = 0.01  # the same for the light-selection CDF
+    camera_points: int = 4096  # pool of camera points x_j used by the estimates above
+    direct_samples: int = 4  # light samples for a reverse VPL's direct light
+    standard_samples: int = 64  # standard VPLs a reverse VPL gathers for its indirect light
+    clamp: float = 0.5  # geometry clamping inside the estimates (as GatherSettings.clamp)
+
+
+def place(context, settings):
+    b: BidirSettings = settings.bidir
+    scene, tracer, rng = context.scene, context.tracer, context.rng
+    kept_count = max(1, int(settings.vpls))
+    total = max(2, int(round(kept_count * b.ratio)))
+    pool = CameraPoints.sample(scene, tracer, b.camera_points, rng)
+    d_min = clamp_distance(scene.surface_area, kept_count, b.clamp)
+
+    light_prob = camera_light_distribution(context.lights, pool, tracer, rng, floor=b.light_floor)
+    standard, paths = trace_until(scene, tracer, context.lights, total // 2, rng, context.max_bounces, light_prob)
+    reverse = reverse_vpls.place(scene, tracer, context.lights, pool, total - total // 2, standard, rng,
+                                 context.max_bounces, b.density_paths_coarse, b.direct_samples, b.standard_samples,
+                                 d_min)
+    both = VirtualLights.concat([standard.scaled(0.5), reverse.vpls.scaled(0.5)])
+    power = camera_power(both, pool, b.power_paths, tracer, d_min, rng)
+    index, weight = resample(power, kept_count, b.cdf_floor, rng)
+    kept = both.take(index).scaled(weight)
+
+    # refine the density of the kept reverse VPLs with more camera points
+    rev = np.nonzero(kept.kind == REVERSE)[0]
+    if len(rev):
+        factor = reverse.refine(index[rev] - len(standard), pool, b.density_paths_fine, tracer, rng)
+        kept.intensity[rev] *= factor[:, None]
+    info = {"light_paths": paths, "reverse_attempts": reverse.attempts, "standard": len(standard),
+            "reverse": len(reverse.vpls),
+            "kept": len(kept), "kept_reverse_share": kept.reverse_share}
+    return kept, info
