@@ -38,7 +38,6 @@ def _ensure_registered():
 
 
 def cmd_render(args) -> int:
-    from ..vpl_addon import passes as P
     from . import engine
     from .extract import ExtractionError, camera_of
     from .output import check_target, render_to
@@ -52,13 +51,16 @@ def cmd_render(args) -> int:
         raise UserError(str(err)) from None
     scene.render.engine = engine.VPLGIRenderEngine.bl_idname
     settings = scene.vpl_gi
-    for flag in ("samples", "light_samples", "seed"):
+    for flag in SETTING_FLAGS:
         if getattr(args, flag) is not None:
             setattr(settings, flag, getattr(args, flag))
+    if args.no_filter:
+        settings.filter = False
+    if args.percentage is not None:
+        scene.render.resolution_percentage = args.percentage
     for layer in scene.view_layers:
-        for name, toggle, _, _ in engine.PASS_TOGGLES:
-            if name != P.DIFFUSE_INDIRECT:
-                setattr(layer, toggle, True)
+        for _, toggle, _, _ in engine.PASS_TOGGLES:
+            setattr(layer, toggle, True)
     if args.frame is not None:
         scene.frame_set(args.frame)
     t0 = time.perf_counter()
@@ -72,9 +74,18 @@ def cmd_render(args) -> int:
             print(f"warning: {message}", file=sys.stderr)
     stats = engine.LAST_STATS
     stages = ", ".join(f"{k} {v:.2f} s" for k, v in stats.get("seconds", {}).items())
-    print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, "
+    info = stats.get("info", {})
+    method = stats.get("method")
+    if method != "none" and "vpls" in info:
+        method += f" {info['vpls']} VPLs"
+        if "kept_reverse_share" in info:
+            method += f" ({info['kept_reverse_share'] * 100:.0f} % reverse)"
+    print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, {method}, "
           f"{time.perf_counter() - t0:.2f} s ({stages}), {stats.get('rays', 0) / 1e6:.1f} M rays")
     return 0
+
+
+SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave")
 
 
 def cmd_reference(args) -> int:
@@ -85,7 +96,7 @@ def cmd_reference(args) -> int:
     if not os.path.isfile(args.scene):
         raise UserError(f"no such file: {args.scene}")
     _open_blend(args.scene)
-    info = make_reference(args.scene, out, args.samples, args.frame, args.cache_dir)
+    info = make_reference(args.scene, out, args.samples, args.frame, args.cache_dir, args.percentage)
     how = "from cache" if info.get("cached") else f"{info['seconds']:.1f} s"
     print(f"wrote {out}: Cycles {args.samples} spp ({how}), hash {info['hash'][:12]}")
     return 0
@@ -116,6 +127,13 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--samples", type=int, help="camera samples per pixel")
     r.add_argument("--light-samples", type=int, help="shadow rays per camera sample for direct light")
     r.add_argument("--seed", type=int, help="random seed")
+    r.add_argument("--method", choices=("bidir", "ir", "none"), help="how VPLs are placed (default bidir)")
+    r.add_argument("--vpls", type=int, help="VPL budget: the lights the gather uses")
+    r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
+    r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
+    r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
+    r.add_argument("--no-filter", action="store_true", help="skip the filter after interleaving")
+    r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
     r.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
     r.set_defaults(run=cmd_render)
     ref = sub.add_parser("reference", help="render the Cycles reference of a .blend (cached by scene hash)")
@@ -123,6 +141,7 @@ def parser() -> argparse.ArgumentParser:
     ref.add_argument("-o", "--output", required=True)
     ref.add_argument("--samples", type=int, default=4096, help="Cycles samples per pixel (default 4096)")
     ref.add_argument("--frame", type=int)
+    ref.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
     ref.add_argument("--cache-dir", default=os.path.join(os.path.expanduser("~"), ".cache", "vpl_gi"),
                      help="where converged references are kept by hash")
     ref.add_argument("--overwrite", action="store_true")

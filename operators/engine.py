@@ -28,8 +28,7 @@ LAST_STATS: dict = {}
 
 
 def requested_passes(view_layer) -> tuple[str, ...]:
-    wanted = [P.COMBINED] + [name for name, toggle, _, _ in PASS_TOGGLES if getattr(view_layer, toggle, False)]
-    return tuple(name for name in wanted if name in P.CHANNELS and name != P.DIFFUSE_INDIRECT)
+    return (P.COMBINED,) + tuple(name for name, toggle, _, _ in PASS_TOGGLES if getattr(view_layer, toggle, False))
 
 
 class VPLGIRenderEngine(bpy.types.RenderEngine):
@@ -74,7 +73,8 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         for warning in result.warnings:
             self._report("WARNING", warning)
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
-                          width=built.camera.width, height=built.camera.height, samples=settings.samples)
+                          width=built.camera.width, height=built.camera.height, samples=settings.samples,
+                          method=settings.method, info=result.info)
         self._write(built.camera.width, built.camera.height, view_layer.name, result.passes)
 
     def _write(self, width, height, layer_name, images):

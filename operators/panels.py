@@ -24,9 +24,19 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         settings = context.scene.vpl_gi
-        layout.prop(settings, "samples")
-        layout.prop(settings, "light_samples")
-        layout.prop(settings, "seed")
+        col = layout.column()
+        col.prop(settings, "samples")
+        col.prop(settings, "light_samples")
+        col.prop(settings, "seed")
+        col = layout.column(heading="Indirect")
+        col.prop(settings, "method")
+        sub = col.column()
+        sub.active = settings.method != "none"
+        sub.prop(settings, "vpls")
+        sub.prop(settings, "indirect_samples")
+        sub.prop(settings, "clamp")
+        sub.prop(settings, "interleave")
+        sub.prop(settings, "filter")
 
 
 class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):

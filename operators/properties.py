@@ -1,26 +1,58 @@
-"""Settings of the VPL GI engine, stored on the scene as ``scene.vpl_gi``."""
+"""Settings of the VPL GI engine, stored on the scene as ``scene.vpl_gi``; defaults come from the engine's own
+settings classes so Blender, the command line and the engine agree."""
 from __future__ import annotations
 
 import bpy
 
+from ..vpl_addon.gather import GatherSettings
+from ..vpl_addon.methods import MethodSettings
 from ..vpl_addon.render import RenderSettings
 
-_DEFAULTS = RenderSettings()
+_RENDER, _GATHER, _PLACE = RenderSettings(), GatherSettings(), MethodSettings()
+
+METHOD_ITEMS = (
+    ("bidir", "Bidirectional IR", "Segovia et al. 2006: VPLs from the lights and from the camera, resampled by the "
+                                  "power they bring to the image (robust when light comes through a door)"),
+    ("ir", "Instant Radiosity", "Keller 1997: VPLs where light paths from the lights bounce"),
+    ("none", "None", "Direct light only: no indirect light is computed"),
+)
 
 
 class VPLGISettings(bpy.types.PropertyGroup):
     samples: bpy.props.IntProperty(
-        name="Samples", default=_DEFAULTS.samples, min=1, soft_max=1024,
+        name="Samples", default=_RENDER.samples, min=1, soft_max=1024,
         description="Camera samples per pixel: anti-aliasing and the number of shading points per pixel")
     light_samples: bpy.props.IntProperty(
-        name="Light Samples", default=_DEFAULTS.light_samples, min=0, soft_max=64,
+        name="Light Samples", default=_RENDER.light_samples, min=0, soft_max=64,
         description="Shadow rays toward the lights per camera sample for direct light (0 skips direct light)")
+    method: bpy.props.EnumProperty(
+        name="Method", items=METHOD_ITEMS, default=_RENDER.method,
+        description="How virtual point lights are placed for indirect light")
+    vpls: bpy.props.IntProperty(
+        name="VPLs", default=_PLACE.vpls, min=1, soft_max=65536,
+        description="Virtual point lights the gather uses: more is smoother and slower")
+    indirect_samples: bpy.props.IntProperty(
+        name="Indirect Samples", default=_RENDER.indirect_samples, min=1, soft_max=64,
+        description="Camera samples per pixel that gather light from the VPLs (at most Samples)")
+    clamp: bpy.props.FloatProperty(
+        name="Clamp", default=_GATHER.clamp, min=0.0, soft_max=4.0,
+        description="Limit the light of very close VPLs: the minimum distance as a multiple of the mean VPL "
+                    "spacing (0 = no clamping, exact but spotty; higher = smoother, darker corners)")
+    interleave: bpy.props.IntProperty(
+        name="Interleave Tile", default=_GATHER.interleave, min=1, max=16,
+        description="Pixels of each tile see disjoint subsets of the VPLs (1 = every pixel sees every VPL)")
+    filter: bpy.props.BoolProperty(
+        name="Filter", default=_GATHER.filter,
+        description="Geometry-aware filter that removes the interleaving pattern")
     seed: bpy.props.IntProperty(
-        name="Seed", default=_DEFAULTS.seed, min=0,
+        name="Seed", default=_RENDER.seed, min=0,
         description="Seed of the random numbers: the same seed gives the same image")
 
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
-        return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes)
+        return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
+                              method=self.method, indirect_samples=self.indirect_samples,
+                              placement=MethodSettings(vpls=self.vpls),
+                              gather=GatherSettings(interleave=self.interleave, clamp=self.clamp, filter=self.filter))
 
 
 def register():

@@ -23,13 +23,15 @@ KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR
 SEED = 0
 
 
-def reference_hash(blend_path: str, samples: int, frame: int | None) -> str:
+def reference_hash(blend_path: str, samples: int, frame: int | None, percentage: int | None = None) -> str:
     digest = hashlib.sha256()
     with open(blend_path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
     settings = {"samples": samples, "frame": frame, "seed": SEED, "blender": bpy.app.version_string,
                 "passes": KEPT_PASSES}
+    if percentage is not None:
+        settings["percentage"] = percentage
     digest.update(json.dumps(settings, sort_keys=True).encode())
     return digest.hexdigest()
 
@@ -64,9 +66,9 @@ def configure_cycles(scene, samples: int) -> None:
 
 
 def make_reference(blend_path: str, out_path: str, samples: int, frame: int | None = None,
-                   cache_dir: str | None = None) -> dict:
+                   cache_dir: str | None = None, percentage: int | None = None) -> dict:
     """Render (or fetch from the cache) the Cycles reference of ``blend_path``; returns its record."""
-    digest = reference_hash(blend_path, samples, frame)
+    digest = reference_hash(blend_path, samples, frame, percentage)
     cached = os.path.join(cache_dir, f"{digest}.exr") if cache_dir else None
     if cached and os.path.exists(cached) and stored_info(cached).get("hash") == digest:
         shutil.copyfile(cached, out_path)
@@ -75,6 +77,8 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
     scene = bpy.context.scene
     if frame is not None:
         scene.frame_set(frame)
+    if percentage is not None:
+        scene.render.resolution_percentage = percentage
     configure_cycles(scene, samples)
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(dir=os.path.dirname(os.path.abspath(out_path))) as tmp:
@@ -82,7 +86,8 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
         render_to(scene, raw)
         seconds = time.perf_counter() - t0
         images, _ = read_passes(raw)
-    info = {"hash": digest, "samples": samples, "frame": frame, "seconds": round(seconds, 2),
+    info = {"hash": digest, "samples": samples, "frame": frame, "percentage": percentage,
+            "seconds": round(seconds, 2),
             "blend": os.path.basename(blend_path), "blender": bpy.app.version_string}
     kept = {name: images[name] for name in KEPT_PASSES if name in images}
     write_passes(out_path, kept, {HEADER_KEY: json.dumps(info, sort_keys=True)}, half=True)

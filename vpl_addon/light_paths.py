@@ -2,7 +2,8 @@
 
 Paths start with ``LightSet.emit`` (lights chosen in proportion to power, or by a given distribution such as the
 camera-driven one of Segovia et al. sec. 4.1), bounce with cosine-weighted directions, and end by Russian roulette
-(survival probability = the largest albedo channel) or at the bounce limit. The VPL at a bounce carries the path's
+(survival probability = the largest albedo channel) or at the bounce limit. The random numbers of a batch are
+Latin-hypercube stratified over its paths. The VPL at a bounce carries the path's
 incident power times albedo / pi; divided by the number of paths (``trace_until``), the whole set estimates the
 indirect light.
 """
@@ -10,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sampling import cosine_hemisphere, dot
+from .sampling import LatinHypercube, cosine_hemisphere, dot
 from .surface import shade
 from .virtual_lights import STANDARD, VirtualLights
 
@@ -23,6 +24,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
     number of paths)."""
     if count <= 0 or len(lights) == 0 or max_bounces <= 0:
         return VirtualLights.empty()
+    rng = LatinHypercube(rng)
     origins, dirs, power = lights.emit(count, rng, light_prob)
     path = np.arange(first_path, first_path + count)
     found = []

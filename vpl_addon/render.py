@@ -38,7 +38,7 @@ class RenderSettings:
     seed: int = 0
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
     method: str = "bidir"  # how VPLs are placed: ir, bidir, or none (no indirect light)
-    indirect_samples: int = 4  # camera samples per pixel that gather from the VPLs
+    indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)
     max_bounces: int | None = None  # None: the scene's bounce limit

@@ -50,7 +50,7 @@ def density(positions, geometric_normals, own_x1, camera_points: CameraPoints, m
         return np.zeros(0)
     total = path_density(own_x1, (positions, geometric_normals, None), tracer)
     if m > 1 and len(camera_points):
-        j = camera_points.choose(k * (m - 1), rng)
+        j = camera_points.choose_stratified(k, m - 1, rng)
         s = camera_points.surface
         rep = np.repeat(np.arange(k), m - 1)
         others = path_density((s.position[j], s.geometric_normal[j], s.shading_normal[j]),

@@ -101,3 +101,24 @@ def r2_sequence(index: np.ndarray) -> np.ndarray:
     """Points (N,2) of Roberts' R2 low-discrepancy sequence ("The unreasonable effectiveness of quasirandom
     sequences", 2018): frac(0.5 + i * (1/g, 1/g^2)), g the plastic number."""
     return (0.5 + np.asarray(index, np.float64)[:, None] * R2_ALPHA) % 1.0
+
+
+class LatinHypercube:
+    """A stand-in for ``np.random.Generator.random`` whose every call of n numbers puts one in each of n equal
+    strata (in random order): Latin hypercube sampling across the rows of a batch. Light paths drawn with it
+    cover the lights' positions and directions evenly, which steadies the total energy of a VPL set (Keller's
+    Instant Radiosity used quasi-random numbers for the same reason)."""
+
+    def __init__(self, rng: np.random.Generator):
+        self.rng = rng
+
+    def random(self, count) -> np.ndarray:
+        if np.ndim(count):
+            return self.rng.random(count)
+        return (self.rng.permutation(count) + self.rng.random(count)) / max(count, 1)
+
+    def permutation(self, count):
+        return self.rng.permutation(count)
+
+    def integers(self, low, high, count):
+        return self.rng.integers(low, high, count)

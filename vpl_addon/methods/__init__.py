@@ -25,7 +25,7 @@ class MethodContext:
 
 @dataclass
 class MethodSettings:
-    vpls: int = 1024  # VPL budget: the number of lights the gather sees (bidir: kept after resampling)
+    vpls: int = 4096  # VPL budget: the number of lights the gather sees (bidir: kept after resampling)
     bidir: bidir.BidirSettings = field(default_factory=bidir.BidirSettings)
 
 
