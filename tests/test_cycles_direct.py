@@ -16,7 +16,8 @@ def test_committed_reference_is_fresh(ext, name):
     from vpl_gi.operators.reference import reference_hash, stored_info
     info = stored_info(str(REFERENCES / f"{name}.exr"))
     assert info.get("samples") == REFERENCE_SAMPLES
-    assert info.get("hash") == reference_hash(str(EXAMPLES / f"{name}.blend"), info["samples"], info["frame"]), (
+    assert info.get("hash") == reference_hash(str(EXAMPLES / f"{name}.blend"), info["samples"], info["frame"],
+                                              info.get("percentage")), (
         f"tests/references/{name}.exr is stale: re-render it with `python -m vpl_addon reference "
         f"example_blends/{name}.blend -o tests/references/{name}.exr --samples {REFERENCE_SAMPLES} --overwrite`")
 
@@ -31,7 +32,7 @@ def direct_errors(image, reference):
 def test_diffuse_direct_matches_cycles(ext, name, tmp_path):
     reference = REFERENCES / f"{name}.exr"
     ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles64.exr"
-    code, _, stderr = run_cli("render", EXAMPLES / f"{name}.blend", "-o", ours, "--samples", "64")
+    code, _, stderr = run_cli("render", EXAMPLES / f"{name}.blend", "-o", ours, "--samples", "64", "--method", "none")
     assert code == 0, stderr
     code, _, stderr = run_cli("reference", EXAMPLES / f"{name}.blend", "-o", cycles, "--samples", "64",
                               "--cache-dir", tmp_path / "cache")
