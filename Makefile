@@ -46,6 +46,7 @@ extension: $(STAMP) $(WHEELS)
 
 examples: $(STAMP)
 	$(BIN)/python example_blends/make_examples.py
+	$(BIN)/python example_blends/make_corridor.py
 
 bench: $(STAMP)
 	$(BIN)/python bench/tracer_throughput.py
