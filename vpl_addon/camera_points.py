@@ -32,10 +32,6 @@ class CameraPoints:
         gbuf = GBuffer.build(scene, tracer, pixels, 1, rng)
         return CameraPoints(gbuf.surface, count)
 
-    def choose(self, count: int, rng: np.random.Generator) -> np.ndarray:
-        """``count`` random indices into the hits (uniform, with replacement)."""
-        return rng.integers(0, len(self.surface), count)
-
     def choose_stratified(self, rows: int, m: int, rng: np.random.Generator) -> np.ndarray:
         """(rows * m,) indices: for each of ``rows`` estimates, one uniform point in each of m equal bands of the
         hits (in image order). Each index is still uniform over the hits, so means stay unbiased."""

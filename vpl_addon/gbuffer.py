@@ -20,7 +20,6 @@ class GBuffer:
     spp: int
     sample: np.ndarray  # (K,) index of each hit among the P*spp samples (sample // spp = position in pixels)
     surface: Surface  # (K,) what each hit sees
-    wo: np.ndarray  # (K,3) unit direction toward the viewer
 
     @staticmethod
     def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
@@ -34,8 +33,7 @@ class GBuffer:
         origins = origins + dirs * near[:, None]
         hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
         sample = np.nonzero(hits.hit)[0]
-        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
-                       wo=-dirs[sample])
+        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample))
 
     def __len__(self):
         return len(self.sample)

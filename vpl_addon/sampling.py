@@ -116,9 +116,3 @@ class LatinHypercube:
         if np.ndim(count):
             return self.rng.random(count)
         return (self.rng.permutation(count) + self.rng.random(count)) / max(count, 1)
-
-    def permutation(self, count):
-        return self.rng.permutation(count)
-
-    def integers(self, low, high, count):
-        return self.rng.integers(low, high, count)

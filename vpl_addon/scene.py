@@ -136,12 +136,3 @@ class Scene:
             return -np.ones(3), np.ones(3)
         pts = self.triangles.reshape(-1, 3).astype(np.float64)
         return pts.min(axis=0), pts.max(axis=0)
-
-    @property
-    def has_emission(self) -> bool:
-        return bool(len(self.triangles)) and bool((self.materials.emission[self.material].max(axis=1) > 0).any())
-
-    @property
-    def has_light(self) -> bool:
-        """False when nothing in the scene emits: then no ray needs tracing for light at all."""
-        return bool(self.lights) or self.has_emission or bool(self.world.max() > 0)
