@@ -250,6 +250,8 @@ class AreaLight(Light):
         return self.center + x[:, None] * self.axis_u + y[:, None] * self.axis_v
 
     def sample_incident(self, p, n, u1, u2):
+        if not self.round:
+            return self._sample_spherical_rectangle(p, u1, u2)
         q = self.sample_points(u1, u2)
         to_l = q - p
         d2 = dot(to_l, to_l)
@@ -257,6 +259,55 @@ class AreaLight(Light):
         wi = to_l / np.maximum(dist, 1e-300)[:, None]
         cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
         factor = cos_l * self.spread_profile(cos_l) * self.area / np.maximum(d2, 1e-300)
+        return wi, dist, factor[:, None] * self.radiance
+
+    def _sample_spherical_rectangle(self, p, u1, u2):
+        """Uniform in the solid angle the rectangle subtends (Urena, Fajardo, King: "An Area-Preserving
+        Parametrization for Spherical Rectangles", EGSR 2013): L_e / pdf = L x solid angle, no 1/d^2 spikes."""
+        ex, ey = self.axis_u, self.axis_v
+        lx, ly = np.linalg.norm(ex), np.linalg.norm(ey)
+        x, y = ex / lx, ey / ly
+        z = np.cross(x, y)
+        d = (self.center - 0.5 * ex - 0.5 * ey) - p
+        x0, y0, z0 = d @ x, d @ y, d @ z
+        flip = z0 > 0.0  # work in the frame where the rectangle lies below the point (z0 < 0)
+        z0 = np.where(flip, -z0, z0)
+        zf = np.where(flip[:, None], -z, z)
+        x1, y1 = x0 + lx, y0 + ly
+
+        def unit(a, b, c):
+            v = np.stack([a, b, c], axis=-1)
+            return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
+
+        # normals of the spherical quad's edges in the local frame (x, y, z)
+        n0 = unit(np.zeros_like(z0), z0, -y0)
+        n1 = unit(-z0, np.zeros_like(z0), x1)
+        n2 = unit(np.zeros_like(z0), -z0, y1)
+        n3 = unit(z0, np.zeros_like(z0), -x0)
+        g0 = np.arccos(np.clip(-dot(n0, n1), -1, 1))
+        g1 = np.arccos(np.clip(-dot(n1, n2), -1, 1))
+        g2 = np.arccos(np.clip(-dot(n2, n3), -1, 1))
+        g3 = np.arccos(np.clip(-dot(n3, n0), -1, 1))
+        b0, b1 = n0[:, 2], n2[:, 2]
+        k = 2.0 * np.pi - g2 - g3
+        solid = np.maximum(g0 + g1 - k, 0.0)
+        au = u1 * solid + k
+        with np.errstate(divide="ignore", invalid="ignore"):
+            fu = (np.cos(au) * b0 - b1) / np.sin(au)
+            cu = np.clip(np.sign(fu) / np.sqrt(fu * fu + b0 * b0), -1.0, 1.0)
+            xu = np.clip(-(cu * z0) / np.sqrt(np.maximum(1.0 - cu * cu, 1e-300)), x0, x1)
+            dd = np.sqrt(xu * xu + z0 * z0)
+            h0 = y0 / np.sqrt(dd * dd + y0 * y0)
+            h1 = y1 / np.sqrt(dd * dd + y1 * y1)
+            hv = h0 + u2 * (h1 - h0)
+            yv = np.where(hv * hv < 1.0 - 1e-6, hv * dd / np.sqrt(np.maximum(1.0 - hv * hv, 1e-300)), y1)
+        q = p + np.nan_to_num(xu)[:, None] * x + np.nan_to_num(yv)[:, None] * y + z0[:, None] * zf
+        to_l = q - p
+        dist = np.linalg.norm(to_l, axis=1)
+        wi = to_l / np.maximum(dist, 1e-300)[:, None]
+        cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
+        ok = (cos_l > 0.0) & np.isfinite(solid) & (solid > 1e-12)
+        factor = np.where(ok, solid * self.spread_profile(cos_l), 0.0)
         return wi, dist, factor[:, None] * self.radiance
 
     def emit(self, count, rng, center, radius):
