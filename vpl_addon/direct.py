@@ -5,25 +5,25 @@ or direction on it, one shadow ray. The result is the outgoing radiance of a whi
 (1/pi) * integral L_i cos(theta) d omega, which is how Cycles defines the pass (light reflected by the diffuse
 BSDF, divided by the diffuse colour).
 
-When the points are the samples of pixels (the G-buffer), the light-sample numbers of all samples of a pixel come
-from one 2D low-discrepancy sequence (Roberts' R2) with a random per-pixel shift (Cranley-Patterson rotation), so
-a pixel's shadow rays cover the light evenly instead of clumping as independent numbers do.
+When the points are the samples of pixels (the G-buffer), the caller can hand in the light-sample numbers: those of
+all samples of a pixel then form one scrambled Sobol net (``sampling.stratified_2d``) dealt out in random order,
+so a pixel's shadow rays cover the light evenly instead of clumping as independent numbers do.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .sampling import dot, r2_sequence
+from .sampling import dot
 
 RAYS_PER_BATCH = 1 << 20
 
 
 def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generator,
-                   sequence: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                   numbers: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """(K,3) direct diffuse radiance at each point of a ``Surface``, averaged over ``samples`` light samples.
 
-    ``sequence`` = (index of each point within its pixel (K,), shift of its pixel (K,2)) draws the light-sample
-    numbers from the pixel's shifted R2 sequence instead of independently."""
+    ``numbers`` = (u1, u2), each (K, samples): the uniform numbers of every light sample, instead of independent
+    ones."""
     k = len(surface)
     out = np.zeros((k, 3))
     if k == 0 or len(lights) == 0 or samples <= 0:
@@ -36,12 +36,10 @@ def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generat
         idx = np.repeat(np.arange(lo, hi), samples)
         # stratify the light-selection and position numbers over the samples of one point
         strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
-        if sequence is None:
+        if numbers is None:
             u1, u2 = rng.random(len(idx)), rng.random(len(idx))
         else:
-            order = sequence[0][idx] * samples + np.tile(np.arange(samples), hi - lo)
-            uv = (r2_sequence(order) + sequence[1][idx]) % 1.0
-            u1, u2 = uv[:, 0], uv[:, 1]
+            u1, u2 = numbers[0][lo:hi].ravel(), numbers[1][lo:hi].ravel()
         wi, dist, weight, target_n = lights.sample_incident(p[idx], ns[idx], strata, u1, u2)
         cos = dot(ns[idx], wi)
         ok = (cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (weight.max(axis=1) > 0.0) & np.isfinite(weight).all(axis=1)

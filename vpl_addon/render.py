@@ -22,6 +22,7 @@ from .bilateral import deinterleave
 from .direct import diffuse_direct
 from .gather import GatherSettings, clamp_distance, gather
 from .gbuffer import GBuffer
+from .sampling import stratified_2d
 from .lights import LightSet
 from .methods import METHODS, MethodContext, MethodSettings, place
 from .tracer import Tracer
@@ -125,9 +126,15 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             surf = gbuf.surface
             marks["gbuffer"] = time.perf_counter()
             if need_direct:
-                shift = rng.random((len(pixels), 2))[gbuf.sample // gbuf.spp]
+                # the light samples of a pixel: one scrambled net, dealt to its camera samples in random order
+                count = gbuf.spp * settings.light_samples
+                u, v = stratified_2d(len(pixels), count, rng)
+                deal = np.argsort(rng.random((len(pixels), count)), axis=1)
+                u, v = np.take_along_axis(u, deal, 1), np.take_along_axis(v, deal, 1)
+                cols = (gbuf.sample % gbuf.spp)[:, None] * settings.light_samples + np.arange(settings.light_samples)
+                rows = (gbuf.sample // gbuf.spp)[:, None]
                 direct = diffuse_direct(surf, lights, tracer, settings.light_samples, rng,
-                                        sequence=(gbuf.sample % gbuf.spp, shift))
+                                        numbers=(u[rows, cols], v[rows, cols]))
             else:
                 direct = 0.0
             marks["direct"] = time.perf_counter()

@@ -78,29 +78,38 @@ def sample_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
 
 
+def _sobol_02(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The first two dimensions of Sobol's sequence as 32-bit integers: van der Corput (bit reversal) and the
+    Pascal-matrix dimension. Any 2^m consecutive-from-zero points form a (0, m, 2)-net."""
+    idx = index.astype(np.uint64)
+    x = np.zeros(idx.shape, np.uint64)
+    y = np.zeros(idx.shape, np.uint64)
+    v = np.uint64(1 << 31)
+    for bit in range(32):
+        on = ((idx >> np.uint64(bit)) & np.uint64(1)).astype(bool)
+        x = np.where(on, x | np.uint64(1 << (31 - bit)), x)
+        y = np.where(on, y ^ v, y)
+        v = v ^ (v >> np.uint64(1))
+    return x, y
+
+
 def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-    """``per_cell`` jittered 2D points for each of ``count`` cells (pixels), shape (count, per_cell).
+    """``per_cell`` 2D points for each of ``count`` cells (pixels), shape (count, per_cell).
 
-    With a square ``per_cell`` the points are one per stratum of a sqrt x sqrt grid (jittered sampling), in a random
-    order per cell so that any leading subset is spread over the cell; otherwise they are independent uniform points.
+    A power of two gives the first points of the 2D Sobol sequence, randomised per pixel by a random digital
+    shift (XOR): a (0, m, 2)-net, so every elementary box of area 1 / per_cell (8x8, 4x16, 64x1, ...) holds one
+    point, which keeps anti-aliasing error low on edges of every direction (Cycles' samplers are of this kind).
+    Any leading 2^j points of a pixel are a net too. Otherwise the points are independent uniform ones.
     """
-    k = int(round(np.sqrt(per_cell)))
-    if k * k != per_cell:
+    if per_cell & (per_cell - 1):
         return rng.random((count, per_cell)), rng.random((count, per_cell))
-    order = np.argsort(rng.random((count, per_cell)), axis=1)
-    ix, iy = order % k, order // k
-    u = (ix + rng.random((count, per_cell))) / k
-    v = (iy + rng.random((count, per_cell))) / k
-    return u, v
-
-
-R2_ALPHA = 1.0 / np.array([1.32471795724474602596, 1.32471795724474602596 ** 2])  # 1 / plastic number powers
-
-
-def r2_sequence(index: np.ndarray) -> np.ndarray:
-    """Points (N,2) of Roberts' R2 low-discrepancy sequence ("The unreasonable effectiveness of quasirandom
-    sequences", 2018): frac(0.5 + i * (1/g, 1/g^2)), g the plastic number."""
-    return (0.5 + np.asarray(index, np.float64)[:, None] * R2_ALPHA) % 1.0
+    x, y = _sobol_02(np.arange(per_cell))
+    shift = rng.integers(0, 1 << 32, (count, 2), dtype=np.uint64)
+    scale = 1.0 / 4294967296.0
+    u = (x[None, :] ^ shift[:, :1]).astype(np.float64) * scale
+    v = (y[None, :] ^ shift[:, 1:]).astype(np.float64) * scale
+    jitter = rng.random((count, per_cell, 2)) * scale  # fill the bits below 32
+    return u + jitter[..., 0], v + jitter[..., 1]
 
 
 class LatinHypercube:
