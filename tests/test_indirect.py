@@ -18,7 +18,7 @@ def render_and_compare(tmp_path, scene, reference, *flags):
     assert code == 0, stderr
     errors = json.loads(result)["Diffuse Indirect"]
     print(f"{scene} {' '.join(map(str, flags))}: rMAE {errors['rmae']:.4f}, mean ratio {errors['mean_ratio']:.4f}"
-          f" | {stdout.strip()}")
+          f" | {stdout.strip().splitlines()[-1]}")
     return errors, stdout
 
 
