@@ -176,6 +176,14 @@ def test_camera_and_world(bpy):
     assert np.allclose(scene.world, [1, 0.5, 2])
 
 
+def test_bounce_limit_follows_cycles_diffuse_and_total_limits(bpy):
+    cycles = bpy.context.scene.cycles
+    cycles.max_bounces, cycles.diffuse_bounces = 6, 3
+    assert extracted(bpy)[0].max_bounces == 3
+    cycles.max_bounces = 2
+    assert extracted(bpy)[0].max_bounces == 2
+
+
 def test_no_camera_is_a_clear_error(bpy):
     from vpl_gi.operators.extract import ExtractionError
     bpy.context.scene.camera = None
