@@ -254,7 +254,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way."""
     scene = depsgraph.scene_eval
     warnings: list[str] = []
-    camera = camera_of(scene)
+    camera = camera_of(depsgraph.scene)
     materials = _MaterialTable(warnings)
     parts, lights, names = [], [], {}
     for inst in depsgraph.object_instances:
@@ -274,7 +274,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     else:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
-    cycles = getattr(scene, "cycles", None)
+    cycles = getattr(depsgraph.scene, "cycles", None)  # render settings: the original, not an evaluated copy
     bounces = min(cycles.max_bounces, cycles.diffuse_bounces) if cycles is not None else 8
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(names) or ["none"], world=_world(scene, warnings),
