@@ -19,11 +19,12 @@ RAYS_PER_BATCH = 1 << 20
 
 
 def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generator,
-                   numbers: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                   numbers: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """(K,3) direct diffuse radiance at each point of a ``Surface``, averaged over ``samples`` light samples.
 
-    ``numbers`` = (u1, u2), each (K, samples): the uniform numbers of every light sample, instead of independent
-    ones."""
+    Each light sample is one sample of a local light (chosen by power) plus, if the world emits, one
+    cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples): the uniform numbers
+    for the local and the world samples, instead of independent ones."""
     k = len(surface)
     out = np.zeros((k, 3))
     if k == 0 or len(lights) == 0 or samples <= 0:
@@ -31,22 +32,33 @@ def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generat
     p = surface.position
     ng = surface.geometric_normal
     ns = surface.shading_normal
-    for lo in range(0, k, max(1, RAYS_PER_BATCH // samples)):
-        hi = min(k, lo + max(1, RAYS_PER_BATCH // samples))
+    step = max(1, RAYS_PER_BATCH // samples)
+    for lo in range(0, k, step):
+        hi = min(k, lo + step)
         idx = np.repeat(np.arange(lo, hi), samples)
-        # stratify the light-selection and position numbers over the samples of one point
-        strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
         if numbers is None:
-            u1, u2 = rng.random(len(idx)), rng.random(len(idx))
+            u1, u2, w1, w2 = (rng.random(len(idx)) for _ in range(4))
         else:
-            u1, u2 = numbers[0][lo:hi].ravel(), numbers[1][lo:hi].ravel()
-        wi, dist, weight, target_n = lights.sample_incident(p[idx], ns[idx], strata, u1, u2)
-        cos = dot(ns[idx], wi)
-        ok = (cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (weight.max(axis=1) > 0.0) & np.isfinite(weight).all(axis=1)
-        sel = np.nonzero(ok)[0]
-        if len(sel):
-            vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], target_n[sel])
-            contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
-            for c in range(3):
-                out[lo:hi, c] += np.bincount(idx[sel] - lo, weights=contrib[:, c], minlength=hi - lo)
+            u1, u2, w1, w2 = (a[lo:hi].ravel() for a in numbers)
+        if lights.local:
+            # stratify the light choice over the samples of one point
+            strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
+            wi, dist, weight, target_n = lights.sample_incident(p[idx], ns[idx], strata, u1, u2)
+            _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer)
+        if lights.world is not None:
+            wi, dist, weight = lights.world.sample_incident(p[idx], ns[idx], w1, w2)
+            _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, np.zeros_like(wi), tracer)
     return out / samples
+
+
+def _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer):
+    """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point."""
+    cos = dot(ns[idx], wi)
+    ok = (cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (weight.max(axis=1) > 0.0) & np.isfinite(weight).all(axis=1)
+    sel = np.nonzero(ok)[0]
+    if len(sel) == 0:
+        return
+    vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], target_n[sel])
+    contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
+    for c in range(3):
+        out[lo:hi, c] += np.bincount(idx[sel] - lo, weights=contrib[:, c], minlength=hi - lo)

@@ -399,38 +399,39 @@ class WorldLight(Light):
 
 
 class LightSet:
-    """Every emitter of a scene with a selection CDF proportional to estimated power."""
+    """Every emitter of a scene. Light paths start from all of them, chosen in proportion to estimated power.
+    Next-event estimation picks among the *local* ones (all but the world) by power, while the world, which a
+    cosine-weighted ray samples as well as anything can, gets its own sample at every light sample (the way
+    Cycles' BSDF sample finds the sky), so a bright sun does not starve the sky of samples."""
 
-    def __init__(self, scene):
-        lo, hi = scene.bounds
-        radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-12)
-        self.center, self.radius = 0.5 * (lo + hi), radius
-        lights: list[Light] = list(scene.lights)
-        emissive = EmissiveTriangles.from_scene(scene)
-        if emissive is not None:
-            lights.append(emissive)
-        if scene.world.max() > 0.0:
-            lights.append(WorldLight(scene.world))
+    def __init__(self, scene=None, lights=None, center=np.zeros(3), radius=1.0):
+        if scene is not None:
+            lo, hi = scene.bounds
+            radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-12)
+            center = 0.5 * (lo + hi)
+            lights = list(scene.lights)
+            emissive = EmissiveTriangles.from_scene(scene)
+            if emissive is not None:
+                lights.append(emissive)
+            if scene.world.max() > 0.0:
+                lights.append(WorldLight(scene.world))
+        self.center, self.radius = center, radius
         flux = np.array([max(l.flux_estimate(radius), 0.0) for l in lights], np.float64)
-        keep = flux > 0.0
-        self.lights = [l for l, k in zip(lights, keep) if k]
-        flux = flux[keep]
-        self.prob = flux / flux.sum() if len(flux) else flux
-        self.cdf = np.cumsum(self.prob)
-        if len(self.cdf):
-            self.cdf[-1] = 1.0
+        self.lights = [l for l, f in zip(lights, flux) if f > 0.0]
+        self.prob = _normalized(flux[flux > 0.0])
+        self.world = next((l for l in self.lights if isinstance(l, WorldLight)), None)
+        self.local = [l for l in self.lights if l is not self.world]
+        self.local_prob = _normalized(np.array([l.flux_estimate(radius) for l in self.local], np.float64))
+        self.local_cdf = np.cumsum(self.local_prob)
+        if len(self.local_cdf):
+            self.local_cdf[-1] = 1.0
 
     def __len__(self):
         return len(self.lights)
 
     def only(self, index: int) -> "LightSet":
-        """The same set restricted to light ``index`` (chosen with probability 1)."""
-        single = object.__new__(LightSet)
-        single.center, single.radius = self.center, self.radius
-        single.lights = [self.lights[index]]
-        single.prob = np.ones(1)
-        single.cdf = np.ones(1)
-        return single
+        """The same set restricted to light ``index``."""
+        return LightSet(lights=[self.lights[index]], center=self.center, radius=self.radius)
 
     def emit(self, count: int, rng: np.random.Generator, prob: np.ndarray | None = None):
         """``count`` light-path starts, lights chosen with ``prob`` (default: by power); power is divided by the
@@ -448,24 +449,27 @@ class LightSet:
         return origins, dirs, power
 
     def sample_incident(self, p, n, u_select, u1, u2):
-        """One light sample per point: (wi, dist, L_e / pdf including 1/p_select, normal at the light point).
-
-        The normal is zero where the light point is not on scene geometry (analytic lights, the world)."""
+        """One sample of a local light per point: (wi, dist, L_e / pdf including 1/p_select, normal at the light
+        point). The normal is zero where the light point is not on scene geometry (analytic lights)."""
         count = len(p)
         target_n = np.zeros((count, 3))
-        if len(self.lights) == 1:
-            out = self.lights[0].sample_incident(p, n, u1, u2)
+        if len(self.local) == 1:
+            out = self.local[0].sample_incident(p, n, u1, u2)
             return out[0], out[1], out[2], out[3] if len(out) == 4 else target_n
         wi = np.zeros((count, 3))
         dist = np.zeros(count)
         weight = np.zeros((count, 3))
-        choice = sample_cdf(self.cdf, u_select)
-        for index, light in enumerate(self.lights):
+        choice = sample_cdf(self.local_cdf, u_select)
+        for index, light in enumerate(self.local):
             m = np.nonzero(choice == index)[0]
             if len(m) == 0:
                 continue
             out = light.sample_incident(p[m], n[m], u1[m], u2[m])
-            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / self.prob[index]
+            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / self.local_prob[index]
             if len(out) == 4:
                 target_n[m] = out[3]
         return wi, dist, weight, target_n
+
+
+def _normalized(weights: np.ndarray) -> np.ndarray:
+    return weights / weights.sum() if len(weights) and weights.sum() > 0 else weights

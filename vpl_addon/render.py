@@ -126,15 +126,16 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             surf = gbuf.surface
             marks["gbuffer"] = time.perf_counter()
             if need_direct:
-                # the light samples of a pixel: one scrambled net, dealt to its camera samples in random order
+                # the light samples of a pixel: scrambled nets, dealt to its camera samples in random order
                 count = gbuf.spp * settings.light_samples
-                u, v = stratified_2d(len(pixels), count, rng)
-                deal = np.argsort(rng.random((len(pixels), count)), axis=1)
-                u, v = np.take_along_axis(u, deal, 1), np.take_along_axis(v, deal, 1)
                 cols = (gbuf.sample % gbuf.spp)[:, None] * settings.light_samples + np.arange(settings.light_samples)
                 rows = (gbuf.sample // gbuf.spp)[:, None]
-                direct = diffuse_direct(surf, lights, tracer, settings.light_samples, rng,
-                                        numbers=(u[rows, cols], v[rows, cols]))
+                numbers = []
+                for _ in range(2):  # one net for the local lights, one for the world
+                    u, v = stratified_2d(len(pixels), count, rng)
+                    deal = np.argsort(rng.random((len(pixels), count)), axis=1)
+                    numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
+                direct = diffuse_direct(surf, lights, tracer, settings.light_samples, rng, numbers=tuple(numbers))
             else:
                 direct = 0.0
             marks["direct"] = time.perf_counter()
