@@ -35,7 +35,7 @@ class Cancelled(Exception):
 @dataclass
 class RenderSettings:
     samples: int = 64  # camera samples per pixel (G-buffer)
-    light_samples: int = 4  # next-event samples per camera sample for direct light
+    light_samples: int = 8  # next-event samples per camera sample for direct light
     seed: int = 0
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
     method: str = "bidir"  # how VPLs are placed: ir, bidir, or none (no indirect light)
