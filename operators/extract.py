@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 
-import bpy
 import numpy as np
 
 from ..vpl_addon.camera import Camera, view_window

@@ -1,6 +1,5 @@
 """Settings of the VPL GI engine, stored on the scene as ``scene.vpl_gi``; defaults come from the engine's own
 settings classes so Blender, the command line and the engine agree."""
-from __future__ import annotations
 
 import bpy
 

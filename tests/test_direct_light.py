@@ -27,7 +27,8 @@ def rect_irradiance_below_center(L, a, b, h):
     """Irradiance under the centre of an a x b Lambertian rectangle of radiance L, parallel at height h."""
     def corner(x, y):
         A, B = x / h, y / h
-        return 0.5 * (A / np.hypot(1, A) * np.arctan(B / np.hypot(1, A)) + B / np.hypot(1, B) * np.arctan(A / np.hypot(1, B)))
+        return 0.5 * (A / np.hypot(1, A) * np.arctan(B / np.hypot(1, A))
+                      + B / np.hypot(1, B) * np.arctan(A / np.hypot(1, B)))
     return 4.0 * L * corner(a / 2, b / 2)
 
 

@@ -140,7 +140,8 @@ def test_lights_in_blender_units(bpy):
     assert np.allclose(lights["POINT"].power, [100, 50, 25]) and lights["POINT"].radius == pytest.approx(0.1)
     assert np.allclose(lights["SPOT"].direction, [0, 0, 1], atol=1e-6)
     assert lights["SPOT"].spot_size == pytest.approx(1.0) and lights["SPOT"].spot_blend == pytest.approx(0.2)
-    assert np.allclose(lights["SUN"].strength, [3, 1.5, 0.75]) and np.allclose(lights["SUN"].direction, [0, 0, 1], atol=1e-6)
+    assert np.allclose(lights["SUN"].strength, [3, 1.5, 0.75])
+    assert np.allclose(lights["SUN"].direction, [0, 0, 1], atol=1e-6)
     area = lights["AREA"]
     assert area.area == pytest.approx(1.0) and np.allclose(area.normal, [0, 0, 1], atol=1e-6)
     assert np.allclose(area.center, [1, 2, 3])

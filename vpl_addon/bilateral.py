@@ -1,11 +1,11 @@
 """Geometry-aware cross-bilateral filter that removes the tile pattern of interleaved sampling.
 
 Each pixel averages the 2t x 2t window around it, which holds every VPL subset exactly four times (so a flat area
-weighs all subsets alike, and a pixel at a corner, whose neighbours on other surfaces are refused, still finds most
-of them),
-weighting a neighbour by how well it lies on the pixel's own surface: its distance from the pixel's tangent plane (relative to the pixel's
-footprint on the surface) and the agreement of normals. Neighbours across depth or orientation discontinuities
-get little weight, so light does not bleed around corners (Segovia et al. 2006; Hedman et al. 2017 sec. 4).
+weighs all subsets alike, and a pixel at a corner, whose neighbours on other surfaces are refused, still finds
+most of them), weighting a neighbour by how well it lies on the pixel's own surface: its distance from the pixel's
+tangent plane (relative to the pixel's footprint on the surface) and the agreement of normals. Neighbours across
+depth or orientation discontinuities get little weight, so light does not bleed around corners (Segovia et al.
+2006; Hedman et al. 2017 sec. 4).
 """
 from __future__ import annotations
 

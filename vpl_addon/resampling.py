@@ -1,11 +1,11 @@
 """Sampling / resampling of VPLs by the power they bring to the camera (Segovia et al. 2006, sec. 3.2 and 4).
 
 The power of each VPL is estimated by connecting it to M camera points (M = 10 in the paper), one from each of M
-bands of the image; a CDF over
-power plus a small uniform floor (so no VPL that could light the image has probability zero) is sampled N' times; each kept
-VPL is weighted by (times chosen) / (N' q), which keeps the set an unbiased estimate of what the full set gave
-(importance resampling, Talbot et al. 2005). The N' draws are systematic (one random offset, N' evenly spaced
-points of the CDF): every VPL is still chosen N' q times on average, with far less spread than independent draws."""
+bands of the image; a CDF over power plus a small uniform floor (so no VPL that could light the image has
+probability zero) is sampled N' times; each kept VPL is weighted by (times chosen) / (N' q), which keeps the set
+an unbiased estimate of what the full set gave (importance resampling, Talbot et al. 2005). The N' draws are
+systematic (one random offset, N' evenly spaced points of the CDF): every VPL is still chosen N' q times on
+average, with far less spread than independent draws."""
 from __future__ import annotations
 
 import numpy as np
