@@ -34,8 +34,10 @@ class BidirSettings:
     cdf_floor: float = 1.0
     light_floor: float = 0.01  # the same for the light-selection CDF
     camera_points: int = 4096  # pool of camera points x_j used by the estimates above
-    direct_samples: int = 4  # light samples for a reverse VPL's direct light
-    standard_samples: int = 64  # standard VPLs a reverse VPL gathers for its indirect light
+    # not from the paper (it does not say): light samples for a reverse VPL's direct light and standard VPLs it
+    # gathers for its indirect light; 16 / 256 cut the Cornell box's error by a tenth against 4 / 64
+    direct_samples: int = 16
+    standard_samples: int = 256
     clamp: float = 0.5  # geometry clamping inside the estimates (as GatherSettings.clamp)
 
 
