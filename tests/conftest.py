@@ -46,3 +46,13 @@ def plane_scene(lights=(), world=(0.0, 0.0, 0.0), size=10.0, height=5.0, res=32,
     cam = Camera(m, res, res, view_window(res, res, orthographic=True, ortho_scale=view * scale), orthographic=True,
                  clip_start=1e-3 * scale)
     return Scene.build(tri, materials or Materials.make([]), list(lights), cam, world=world)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """What the stress suite (tests/stress) covered, at the end of a run that included it."""
+    module = sys.modules.get("test_hostile_scenes")
+    if module is not None and module.RESULTS["cases"]:
+        r = module.RESULTS
+        terminalreporter.write_line(f"stress suite: {len(module.CASES)} hostile scenes x {len(module.METHODS)} "
+                                    f"methods = {r['cases']} renders, {r['bad_pixels']} non-finite or negative "
+                                    f"values")

@@ -121,6 +121,9 @@ def test_offset_origin_escapes_the_surface_at_any_scale(scale, offset):
     d[d @ n <= 0.01] = n
     origin = tracer.offset_origin(p, np.broadcast_to(n, p.shape))
     assert not tracer.occluded(origin, d, np.full(len(p), 10 * scale)).any()
+    # and the push stays a few float32 steps, not a visible distance
+    step = np.spacing(np.abs(p).max().astype(np.float32))
+    assert np.linalg.norm(origin - p, axis=1).max() <= max(64 * step, 1e-3 * scale)
 
 
 def test_bilinear_texture_lookup_repeats_and_interpolates():
