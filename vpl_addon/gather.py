@@ -59,19 +59,28 @@ def gather_pairs(surface, point_index, vpls, vpl_index, tracer, d_min) -> np.nda
                    vpls.position[vpl_index], vpls.normal[vpl_index], vpls.intensity[vpl_index], tracer, d_min)
 
 
+def sum_pairs(surface, point_index, vpls, vpl_index, tracer, d_min, group, count) -> np.ndarray:
+    """(count,3): the light of the pairs (point_index[i], vpl_index[i]) summed by ``group[i]`` (a point or a VPL
+    index), evaluated in batches so memory stays flat however many pairs there are."""
+    out = np.zeros((count, 3))
+    for lo in range(0, len(point_index), PAIRS_PER_BATCH):
+        hi = lo + PAIRS_PER_BATCH
+        light = gather_pairs(surface, point_index[lo:hi], vpls, vpl_index[lo:hi], tracer, d_min)
+        for c in range(3):
+            out[:, c] += np.bincount(group[lo:hi], weights=light[:, c], minlength=count)
+    return out
+
+
 def _sum_over(surface, points, vpls, subset, tracer, d_min, out, scale):
-    """out[points] += scale * sum over the VPLs ``subset`` of their light, in batches of pairs."""
+    """out[points] += scale * sum over the VPLs ``subset`` of their light, a slice of points at a time."""
     if len(points) == 0 or len(subset) == 0:
         return
     step = max(1, PAIRS_PER_BATCH // len(subset))
     for lo in range(0, len(points), step):
         pts = points[lo:lo + step]
-        pi = np.repeat(pts, len(subset))
-        vi = np.tile(subset, len(pts))
-        light = gather_pairs(surface, pi, vpls, vi, tracer, d_min)
         local = np.repeat(np.arange(len(pts)), len(subset))
-        for c in range(3):
-            out[pts, c] += scale * np.bincount(local, weights=light[:, c], minlength=len(pts))
+        out[pts] += scale * sum_pairs(surface, pts[local], vpls, np.tile(subset, len(pts)), tracer, d_min, local,
+                                      len(pts))
 
 
 def gather(surface, pixel_xy, vpls, tracer, settings: GatherSettings, d_min: float,

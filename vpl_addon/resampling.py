@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .gather import gather_pairs
+from .gather import sum_pairs
 from .lights import LUMINANCE
 
 
@@ -21,8 +21,8 @@ def camera_power(vpls, camera_points, m: int, tracer, d_min: float, rng) -> np.n
         return np.zeros(n)
     rep = np.repeat(np.arange(n), m)
     j = camera_points.choose_stratified(n, m, rng)
-    light = gather_pairs(camera_points.surface, j, vpls, rep, tracer, d_min) @ LUMINANCE
-    return camera_points.hit_fraction * np.bincount(rep, weights=light, minlength=n) / m
+    light = sum_pairs(camera_points.surface, j, vpls, rep, tracer, d_min, rep, n) @ LUMINANCE
+    return camera_points.hit_fraction * light / m
 
 
 def resample(power: np.ndarray, count: int, floor: float, rng):

@@ -17,7 +17,7 @@ import numpy as np
 
 from .camera_points import CameraPoints
 from .direct import diffuse_direct
-from .gather import gather_pairs
+from .gather import sum_pairs
 from .sampling import cosine_hemisphere, dot
 from .surface import Surface, shade
 from .virtual_lights import REVERSE, VirtualLights
@@ -105,10 +105,8 @@ def place(scene, tracer, lights, camera_points, target: int, standard: VirtualLi
     if len(feeding) and standard_samples > 0:
         rep = np.repeat(np.arange(k), standard_samples)
         vi = feeding[rng.integers(0, len(feeding), k * standard_samples)]
-        light = gather_pairs(s2, rep, standard, vi, tracer, d_min)
         # a uniform sample of the feeding VPLs, scaled up to their sum
-        incident += np.stack([np.bincount(rep, weights=light[:, c], minlength=k) for c in range(3)], 1) * \
-            (len(feeding) / standard_samples)
+        incident += sum_pairs(s2, rep, standard, vi, tracer, d_min, rep, k) * (len(feeding) / standard_samples)
     p = density(s2.position, s2.geometric_normal, x1, camera_points, density_paths, tracer, rng)
     weight = 1.0 / np.maximum(p * attempts, 1e-300)
     vpls = VirtualLights(s2.position, s2.shading_normal, s2.albedo * incident * weight[:, None],
