@@ -23,8 +23,8 @@ def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generat
     """(K,3) direct diffuse radiance at each point of a ``Surface``, averaged over ``samples`` light samples.
 
     Each light sample is one sample of a local light (chosen by power) plus, if the world emits, one
-    cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples): the uniform numbers
-    for the local and the world samples, instead of independent ones."""
+    cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples) or None: the uniform
+    numbers for the local and the world samples, instead of independent ones."""
     k = len(surface)
     out = np.zeros((k, 3))
     if k == 0 or len(lights) == 0 or samples <= 0:
@@ -36,10 +36,8 @@ def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generat
     for lo in range(0, k, step):
         hi = min(k, lo + step)
         idx = np.repeat(np.arange(lo, hi), samples)
-        if numbers is None:
-            u1, u2, w1, w2 = (rng.random(len(idx)) for _ in range(4))
-        else:
-            u1, u2, w1, w2 = (a[lo:hi].ravel() for a in numbers)
+        given = numbers or (None,) * 4
+        u1, u2, w1, w2 = (rng.random(len(idx)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples

@@ -131,7 +131,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 cols = (gbuf.sample % gbuf.spp)[:, None] * settings.light_samples + np.arange(settings.light_samples)
                 rows = (gbuf.sample // gbuf.spp)[:, None]
                 numbers = []
-                for _ in range(2):  # one net for the local lights, one for the world
+                for needed in (bool(lights.local), lights.world is not None):  # a net for each kind of light
+                    if not needed:
+                        numbers += [None, None]
+                        continue
                     u, v = stratified_2d(len(pixels), count, rng)
                     deal = np.argsort(rng.random((len(pixels), count)), axis=1)
                     numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
