@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .sampling import dot
+from .sampling import dot, group_sum
 
 RAYS_PER_BATCH = 1 << 20
 
@@ -58,5 +58,4 @@ def _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer)
         return
     vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], target_n[sel])
     contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
-    for c in range(3):
-        out[lo:hi, c] += np.bincount(idx[sel] - lo, weights=contrib[:, c], minlength=hi - lo)
+    out[lo:hi] += group_sum(idx[sel] - lo, contrib, hi - lo)

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sampling import dot
+from .sampling import dot, group_sum
 
 PAIRS_PER_BATCH = 1 << 20
 
@@ -66,8 +66,7 @@ def sum_pairs(surface, point_index, vpls, vpl_index, tracer, d_min, group, count
     for lo in range(0, len(point_index), PAIRS_PER_BATCH):
         hi = lo + PAIRS_PER_BATCH
         light = gather_pairs(surface, point_index[lo:hi], vpls, vpl_index[lo:hi], tracer, d_min)
-        for c in range(3):
-            out[:, c] += np.bincount(group[lo:hi], weights=light[:, c], minlength=count)
+        out += group_sum(group[lo:hi], light, count)
     return out
 
 

@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .sampling import stratified_2d
+from .sampling import group_sum, stratified_2d
 from .surface import Surface, shade
 
 
@@ -45,10 +45,7 @@ class GBuffer:
 
     def splat(self, values: np.ndarray) -> np.ndarray:
         """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film."""
-        values = np.asarray(values, np.float64)
-        index = self.sample // self.spp
-        sums = [np.bincount(index, weights=values[:, c], minlength=len(self.pixels)) for c in range(values.shape[1])]
-        return np.stack(sums, axis=1) / self.spp
+        return group_sum(self.sample // self.spp, np.asarray(values, np.float64), len(self.pixels)) / self.spp
 
     @property
     def coverage(self) -> np.ndarray:

@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .sampling import (concentric_disk, cosine_hemisphere, dot, normalize, orthonormal_basis, sample_cdf,
-                       triangle_barycentrics, uniform_cone)
+                       triangle_barycentrics, uniform_cone, uniform_sphere)
 
 LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
 
@@ -60,13 +60,6 @@ def _round_light_sample(p, center, radius, soft, u1, u2):
     else:  # near side of the sphere (law of cosines); inside it the light is right here
         dist = np.maximum(b - np.sqrt(np.maximum(r2 - (d2 - b * b), 0.0)), 0.0)
     return wi, dist, 2.0 * one_minus_cos / r2
-
-
-def uniform_sphere(rng, count):
-    z = 1.0 - 2.0 * rng.random(count)
-    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
-    phi = 2.0 * np.pi * rng.random(count)
-    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
 
 
 def _disc_facing(rng, dirs, center, radius):
@@ -140,11 +133,11 @@ class PointLight(Light):
 
     def emit(self, count, rng, center, radius):
         if self.radius > 0.0:  # a uniformly emitting sphere: point on it, cosine direction outward
-            normal = uniform_sphere(rng, count)
+            normal = uniform_sphere(rng.random(count), rng.random(count))
             dirs, _ = cosine_hemisphere(rng.random(count), rng.random(count), normal)
             origins = self.position + self.radius * normal
         else:
-            dirs = uniform_sphere(rng, count)
+            dirs = uniform_sphere(rng.random(count), rng.random(count))
             origins = np.broadcast_to(self.position, (count, 3)).copy()
         return origins, dirs, self.attenuation(dirs)[:, None] * self.power
 
@@ -421,7 +414,7 @@ class WorldLight(Light):
         return wi, np.full(len(p), np.inf), factor[:, None] * self.radiance
 
     def emit(self, count, rng, center, radius):
-        dirs = uniform_sphere(rng, count)
+        dirs = uniform_sphere(rng.random(count), rng.random(count))
         origins = _disc_facing(rng, dirs, center, radius)
         return origins, dirs, np.broadcast_to(self.radiance * 4.0 * np.pi * np.pi * radius * radius,
                                               (count, 3)).copy()

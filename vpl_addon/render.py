@@ -22,7 +22,7 @@ from .bilateral import deinterleave
 from .direct import diffuse_direct
 from .gather import GatherSettings, clamp_distance, gather
 from .gbuffer import GBuffer
-from .sampling import stratified_2d
+from .sampling import group_sum, stratified_2d
 from .lights import LightSet
 from .methods import METHODS, MethodContext, MethodSettings, place
 from .tracer import Tracer
@@ -148,12 +148,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 pix = gbuf.pixel_of_hit[rows]
                 light = gather(sub, np.stack([pix % w, pix // w], 1), vpls, tracer, settings.gather, d_min,
                                permutation)
-                local = (gbuf.sample[rows] // gbuf.spp)
-                for c in range(3):
-                    indirect[pixels, c] = np.bincount(local, weights=light[:, c], minlength=len(pixels)) / gather_spp
-                    guide_position[pixels, c] = np.bincount(local, weights=sub.position[:, c], minlength=len(pixels))
-                    guide_normal[pixels, c] = np.bincount(local, weights=sub.shading_normal[:, c],
-                                                          minlength=len(pixels))
+                local = gbuf.sample[rows] // gbuf.spp
+                indirect[pixels] = group_sum(local, light, len(pixels)) / gather_spp
+                guide_position[pixels] = group_sum(local, sub.position, len(pixels))
+                guide_normal[pixels] = group_sum(local, sub.shading_normal, len(pixels))
                 guide_count[pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
             images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + surf.emission)

@@ -18,6 +18,12 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.einsum("...i,...i->...", a, b)
 
 
+def group_sum(index: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
+    """(count, C) sums of the rows of ``values`` (N, C) by their group ``index`` (N,) in [0, count)."""
+    return np.stack([np.bincount(index, weights=values[:, c], minlength=count) for c in range(values.shape[1])],
+                    axis=1)
+
+
 def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Tangent vectors (t, b) completing unit normals n to a right-handed frame (Duff et al. 2017)."""
     sign = np.where(n[..., 2] >= 0.0, 1.0, -1.0)
@@ -41,6 +47,14 @@ def cosine_hemisphere(u1: np.ndarray, u2: np.ndarray, n: np.ndarray) -> tuple[np
     z = np.sqrt(np.maximum(0.0, 1.0 - u1))
     local = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
     return to_world(local, n), z
+
+
+def uniform_sphere(u1: np.ndarray, u2: np.ndarray) -> np.ndarray:
+    """Directions uniform over the unit sphere (pdf 1 / (4 pi))."""
+    z = 1.0 - 2.0 * u1
+    r = np.sqrt(np.maximum(0.0, 1.0 - z * z))
+    phi = 2.0 * np.pi * u2
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
 
 
 def uniform_cone(u1: np.ndarray, u2: np.ndarray, axis: np.ndarray, cos_max: np.ndarray) -> np.ndarray:
