@@ -523,6 +523,12 @@ def headline(label: str, panels: dict[str, dict[str, C.Curve]]) -> list[str]:
             else:
                 lines.append(f"  equal time {seconds:g} s: {rival} rMAE {eq.cycles_error.value:.4f} / {eq.best} "
                              f"{eq.best_error.value:.4f} = {eq.ratio:.2f}x")
+        each = []
+        for m, c in ours.items():
+            ratios = [C.equal_time({m: c}, curves[rival], t).ratio for t in HEADLINE_SECONDS]
+            each.append(f"{m} " + " / ".join("n/a" if r is None else f"{r:.2f}x" for r in ratios))
+        lines.append(f"  each method, {rival} rMAE / its rMAE at {' / '.join(f'{t:g} s' for t in HEADLINE_SECONDS)}: "
+                     + ", ".join(each))
         ee = C.equal_error(ours, curves[rival], HEADLINE_SECONDS[-1])
         if ee.best is None:
             lines.append(f"  equal error: n/a (no method's runs span {ee.seconds:g} s)")
