@@ -588,14 +588,15 @@ def scaling(bench: Bench, blend: str) -> list[str]:
             bench.bar.update(1)
             xs.append(count)
             ts.append(wall)
-            rows.append({"sweep": sweep, "count": count, "wall_s": round(wall, 4), "rays": result.rays,
+            rows.append({"sweep": sweep, "count": count, "wall_s": round(wall, 4),
+                         **{f"{s}_s": _num(result.seconds.get(s)) for s in STAGES}, "rays": result.rays,
                          "peak_rss_mb": _num(mem.peak_mb, 1)})
             lines.append(f"  {sweep:10s} {count:>10,d} {wall:8.2f} {result.rays / 1e6:8.1f}")
         lines.append(f"  {sweep:10s} fitted exponent (wall ~ count^k): k = {C.fit_exponent(xs, ts):.2f}")
     path = os.path.join(o.out_dir, "scaling.csv")
     fd, tmp = tempfile.mkstemp(prefix=".partial-", suffix=".csv", dir=o.out_dir)
     with os.fdopen(fd, "w", newline="") as f:
-        writer = csv.DictWriter(f, ("sweep", "count", "wall_s", "rays", "peak_rss_mb"))
+        writer = csv.DictWriter(f, ("sweep", "count", "wall_s", *(f"{s}_s" for s in STAGES), "rays", "peak_rss_mb"))
         writer.writeheader()
         writer.writerows(rows)
     os.replace(tmp, path)
