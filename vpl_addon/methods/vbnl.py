@@ -22,7 +22,7 @@ from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
 from ..photon_lights import ALPHA, PhotonLights
 from ..sample_elimination import MODES, eliminate
-from ..sampling import cosine_hemisphere, dot, sample_cdf, triangle_barycentrics
+from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
 from ..surface import shade
 from .. import virtual_light_sampling
 
@@ -36,8 +36,8 @@ class VBNLSettings:
     candidates: int = 10  # M / N: camera candidates per kept light
     elimination: str = "adaptive"  # adaptive (eq. 2), uniform (eq. 1) or none (random subset)
     local: int = 32  # m of eq. 2: the neighbours that estimate a candidate's local density
-    photons: int = 1 << 20  # light paths traced for photon splitting
-    area_samples: int = 32  # uniform surface points per light that measure the lights' catchments
+    photons: int = 1 << 18  # light paths traced for photon splitting
+    area_samples: int = 32  # surface points per light that measure its catchment
     sampling: virtual_light_sampling.SamplingSettings = field(
         default_factory=virtual_light_sampling.SamplingSettings)
 
@@ -68,24 +68,31 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator):
     return np.concatenate(found_p), np.concatenate(found_n)
 
 
-def catchment(lights, scene, count: int, rng: np.random.Generator) -> np.ndarray:
-    """(N,) A_j, the surface area of each light's share (``photon_lights``): ``count`` points uniform over the
-    scene's surface, each standing for area / count on either side of its surface, spread like photons."""
+def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> np.ndarray:
+    """(N,) A_j, the surface area of each light's share (``photon_lights``): ``per_light`` stratified points of
+    the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray, each
+    standing for pi r_j^2 / per_light of the disc divided by the cosine between the surface and the disc; the
+    sum of their shares s_j. Exact on flat surfaces; points past an edge find no surface and add nothing."""
     out = np.zeros(len(lights))
-    areas = scene.triangle_areas
-    total = float(areas.sum())
-    if total <= 0.0 or count <= 0 or len(lights) == 0:
+    if len(lights) == 0 or per_light <= 0:
         return out
-    cdf = np.cumsum(areas) / total
-    for lo in range(0, count, POINTS_PER_BATCH):
-        n = min(POINTS_PER_BATCH, count - lo)
-        tri = sample_cdf(cdf, rng.random(n))
-        b1, b2 = triangle_barycentrics(rng.random(n), rng.random(n))
-        corners = scene.triangles[tri].astype(np.float64)
-        point = (1.0 - b1 - b2)[:, None] * corners[:, 0] + b1[:, None] * corners[:, 1] + b2[:, None] * corners[:, 2]
-        facing = scene.geometric_normals[tri]
-        for side in (facing, -facing):
-            out += lights.spread(point, side, np.full(n, total / count))[:, 0]
+    step = max(1, POINTS_PER_BATCH // per_light)
+    for lo in range(0, len(lights), step):
+        own = np.arange(lo, min(len(lights), lo + step))
+        u, v = stratified_2d(len(own), per_light, rng)
+        dx, dy = concentric_disk(u.ravel(), v.ravel())
+        j = np.repeat(own, per_light)
+        t, b = orthonormal_basis(lights.normal[j])
+        r, n = lights.radius[j], lights.normal[j]
+        start = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b + r[:, None] * n
+        hits = tracer.intersect(start, -n, tmax=2.0 * r)
+        rows = np.nonzero(hits.hit)[0]
+        y = shade(scene, -n, hits, rows)
+        slope = np.abs(dot(y.geometric_normal, n[rows]))
+        pair, light, share = lights.shares(y.position, y.shading_normal)
+        mine = np.bincount(pair, share * (light == j[rows][pair]), len(rows))
+        area = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)
+        out += np.bincount(j[rows], mine * area, len(lights))
     return out
 
 
@@ -97,7 +104,7 @@ def place(context, settings):
     kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
     lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
     marks["elimination"] = time.perf_counter()
-    lights.catchment = catchment(lights, context.scene, s.area_samples * len(lights), context.rng)
+    lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
     intensity = np.zeros((len(lights), 3))
     traced = 0
     while traced < s.photons and len(lights):
