@@ -77,9 +77,9 @@ class PhotonLights:
 
     def spread(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray) -> np.ndarray:
         """(N, C): per-point values (P, C) shared among the covering lights; a point no light covers adds
-        nothing. Photon splitting (sec. 3.3) with values = reflected intensities; the catchment with areas."""
+        nothing. Photon splitting (sec. 3.3) with values = the photons' reflected intensities."""
         rows, light, share = self.shares(points, normals)
-        values = np.asarray(values, np.float64).reshape(len(points), -1)
+        values = np.asarray(values, np.float64)
         out = np.zeros((len(self), values.shape[1]))
         for c in range(values.shape[1]):
             out[:, c] = np.bincount(light, share * values[rows, c], len(self))

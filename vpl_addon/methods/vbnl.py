@@ -29,6 +29,7 @@ from .. import virtual_light_sampling
 PATHS_PER_BATCH = 1 << 16
 PIXELS_PER_BATCH = 1 << 14
 POINTS_PER_BATCH = 1 << 18
+DROP = 0.1  # catchment rays start this many radii above the light's tangent plane
 
 
 @dataclass
@@ -70,9 +71,11 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator):
 
 def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> np.ndarray:
     """(N,) A_j, the surface area of each light's share (``photon_lights``): ``per_light`` stratified points of
-    the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray, each
-    standing for pi r_j^2 / per_light of the disc divided by the cosine between the surface and the disc; the
-    sum of their shares s_j. Exact on flat surfaces; points past an edge find no surface and add nothing."""
+    the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray from
+    ``DROP`` r_j above to as far below, each standing for pi r_j^2 / per_light of the disc divided by the cosine
+    between the surface and the disc; the sum of their shares s_j. Exact on flat surfaces; points past an edge
+    find no surface and add nothing. The short drop keeps other surfaces near the light (a shelf above a floor)
+    from hiding the light's own."""
     out = np.zeros(len(lights))
     if len(lights) == 0 or per_light <= 0:
         return out
@@ -84,8 +87,8 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
         j = np.repeat(own, per_light)
         t, b = orthonormal_basis(lights.normal[j])
         r, n = lights.radius[j], lights.normal[j]
-        start = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b + r[:, None] * n
-        hits = tracer.intersect(start, -n, tmax=2.0 * r)
+        start = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b + (DROP * r)[:, None] * n
+        hits = tracer.intersect(start, -n, tmax=2.0 * DROP * r)
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
