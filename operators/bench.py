@@ -66,11 +66,19 @@ def _vpl_count(settings: RenderSettings, n: int) -> RenderSettings:
     return dataclasses.replace(settings, placement=dataclasses.replace(settings.placement, vpls=n))
 
 
+def _vbnl_samples(settings: RenderSettings, n: int) -> RenderSettings:
+    vbnl = settings.placement.vbnl
+    vbnl = dataclasses.replace(vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=n))
+    return dataclasses.replace(settings, placement=dataclasses.replace(settings.placement, vbnl=vbnl))
+
+
 VPL_COUNT = Knob("vpls", (64, 256, 1024, 4096, 16384, 65536), (64, 256), _vpl_count)
 SAMPLES = Knob("spp", (1, 4, 16, 64, 256, 1024, 4096), (1, 4))
 # Method -> budget knob. Engine methods not listed here sweep the VPL count; a method with another knob (a photon
-# count, camera samples per pixel) gets an entry here with an ``apply`` that sets it on RenderSettings.
+# count, its own samples per pixel) gets an entry here with an ``apply`` that sets it on RenderSettings.
 KNOBS: dict[str, Knob] = {CYCLES: SAMPLES, OIDN: SAMPLES}
+if "vbnl" in METHODS:  # Li et al.: a fixed set of lights, sampled with more (BSDF + light) sample pairs per pixel
+    KNOBS["vbnl"] = Knob("samples", (1, 4, 16, 64, 256), (1, 4), _vbnl_samples)
 
 
 def knob_of(method: str) -> Knob:
