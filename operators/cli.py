@@ -82,6 +82,8 @@ def cmd_render(args) -> int:
         method += f" {info['vpls']} VPLs"
         if "kept_reverse_share" in info:
             method += f" ({info['kept_reverse_share'] * 100:.0f} % reverse)"
+        if "light_paths" in info:
+            method += f", {info['light_paths']} light paths"
     print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, {method}, "
           f"{time.perf_counter() - t0:.2f} s ({stages}), {stats.get('rays', 0) / 1e6:.1f} M rays")
     return 0
