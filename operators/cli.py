@@ -43,6 +43,8 @@ def cmd_render(args) -> int:
     from .output import check_target, render_to
 
     out = check_target(args.output, args.overwrite)
+    if os.path.exists(out) and os.path.exists(args.scene) and os.path.samefile(out, args.scene):
+        raise UserError(f"{out} is the scene being rendered; choose another output file")
     _ensure_registered()
     scene = _open_blend(args.scene)
     try:
@@ -64,11 +66,13 @@ def cmd_render(args) -> int:
     if args.frame is not None:
         scene.frame_set(args.frame)
     t0 = time.perf_counter()
-    render_to(scene, out)
-    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
-    if errors:
-        os.unlink(out)
-        raise UserError(errors[0])
+
+    def verify():  # before the image replaces anything: the engine's first error, if any, ends the run
+        errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
+        if errors:
+            raise UserError(errors[0])
+
+    render_to(scene, out, verify)
     for level, message in engine.LAST_REPORTS:
         if level == "WARNING":
             print(f"warning: {message}", file=sys.stderr)
