@@ -137,6 +137,11 @@ def cases():
     yield "clip start beyond everything", room(camera=camera(clip=(1e3, 1e30))), {}
     yield "clip end before clip start", room(camera=camera(clip=(1.0, 0.5))), {}
     yield "one-pixel image", room(camera=camera(res=(1, 1))), {}
+    broken = base.camera.to_world.copy()
+    broken[0, 3] = np.nan
+    yield "camera with a NaN transform", room(camera=Camera(broken, 16, 16, base.camera.window)), {}
+    yield "camera scaled to zero", room(camera=Camera(np.diag([0.0, 0.0, 0.0, 1.0]), 16, 16,
+                                                      base.camera.window)), {}
     yield "64x1 image", room(camera=camera(res=(64, 1))), {}
     yield "fisheye-wide lens (1 mm)", room(camera=camera(lens=1.0)), {}
     yield "orthographic, 1e-6 m view", room(camera=camera(orthographic=True, ortho_scale=1e-6)), {}
