@@ -68,6 +68,11 @@ def nan_uvs(bpy):
     floor.data.materials.append(mat)
 
 
+def nan_custom_normals(bpy):
+    floor = bpy.data.objects["Floor"].data
+    floor.normals_split_custom_set([(math.nan, math.inf, 0.0)] * len(floor.loops))
+
+
 def missing_texture(bpy):
     mat = bpy.data.materials.new("Broken material")
     node = mat.node_tree.nodes.new("ShaderNodeTexImage")
@@ -153,6 +158,7 @@ HAZARDS = {
     "infinite scale of a mesh": (infinite_scale, None, "'Broken'"),
     "zero scale of a mesh": (zero_scale, None, "'Broken'"),
     "NaN and inf UVs on a textured floor": (nan_uvs, None, None),
+    "NaN and inf custom normals": (nan_custom_normals, None, None),
     "missing image texture file": (missing_texture, None, "'Broken material'"),
     "NaN and inf material inputs": (nan_material, None, None),
     "empty mesh object": (empty_mesh, None, None),
