@@ -200,3 +200,18 @@ def test_scale_and_position_do_not_change_the_image(method, variant):
     noise = errors(image(room(), 1), base)["rmae"]
     moved = errors(image(room(**variant), 0), base)["rmae"]
     assert moved < 1.5 * noise
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: small_settings("ir", samples=0), "samples"),
+    (lambda: small_settings("ir", light_samples=-1), "light samples"),
+    (lambda: small_settings("ir", placement=MethodSettings(vpls=0)), "VPL budget"),
+    (lambda: small_settings("ir", gather=GatherSettings(clamp=float("nan"))), "clamp"),
+    (lambda: small_settings("ir", gather=GatherSettings(clamp=-1.0)), "clamp"),
+    (lambda: small_settings("no such method"), "unknown method"),
+], ids=["samples 0", "light samples -1", "vpls 0", "clamp nan", "clamp -1", "unknown method"])
+def test_hostile_settings_are_refused_naming_the_setting(make, words):
+    """Settings that cannot render (a NaN clamp made every gathered pixel NaN) fail before any work, naming the
+    setting."""
+    with pytest.raises(ValueError, match=words):
+        make()
