@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -55,6 +56,7 @@ def cmd_render(args) -> int:
     settings = scene.vpl_gi
     for flag in SETTING_FLAGS:
         if getattr(args, flag) is not None:
+            _check_range(settings, flag, getattr(args, flag))
             setattr(settings, flag, getattr(args, flag))
     if args.no_filter:
         settings.filter = False
@@ -87,6 +89,17 @@ def cmd_render(args) -> int:
     print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, {method}, "
           f"{time.perf_counter() - t0:.2f} s ({stages}), {stats.get('rays', 0) / 1e6:.1f} M rays")
     return 0
+
+
+def _check_range(settings, flag, value):
+    """Blender clamps a number outside its property's range without a word (and keeps NaN): refuse it instead."""
+    prop = settings.bl_rna.properties[flag]
+    if not hasattr(prop, "hard_min"):
+        return
+    if not (math.isfinite(value) and prop.hard_min <= value <= prop.hard_max):
+        high = f" and {prop.hard_max:g}" if prop.hard_max < 1e9 else ""
+        raise UserError(f"--{flag.replace('_', '-')} {value:g}: must be a number {'between' if high else 'of at least'} "
+                        f"{prop.hard_min:g}{high}")
 
 
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave")

@@ -226,3 +226,14 @@ def test_hostile_blender_scene_renders_or_fails_in_one_line(hazard, hostile_blen
     RESULTS["renders"] += 1
     RESULTS["bad_values"] += bad
     assert bad == 0
+
+
+@pytest.mark.parametrize("flag, value", [("--samples", "0"), ("--vpls", "-5"), ("--interleave", "100"),
+                                         ("--clamp", "nan"), ("--clamp", "-1"), ("--light-samples", "-1")])
+def test_out_of_range_settings_are_refused_in_one_line(flag, value, hostile_blend, tmp_path):
+    """A number outside a setting's range (Blender would clamp it silently, and keeps NaN) is refused in one line
+    naming the flag, and nothing is written."""
+    out = tmp_path / "out.exr"
+    code, _, stderr = run_cli("render", hostile_blend(lambda bpy: None), "-o", out, flag, value)
+    assert f"{flag} {value}" in one_error_line(code, stderr)
+    assert not out.exists() and not list(tmp_path.glob(".partial-*"))
