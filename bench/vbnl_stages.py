@@ -58,7 +58,7 @@ def main():
     kept = eliminate(position, args.lights, rng)
     print(f"adaptive sample elimination {len(position):,} -> {len(kept.keep):,}: {time.perf_counter() - t:.2f} s")
     lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
-    split = traced = paths = 0
+    split = paths = 0
     trace_seconds = split_seconds = 0.0
     while split < args.photons:
         t = time.perf_counter()

@@ -92,8 +92,9 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
         j = np.repeat(own, per_light)
         t, b = orthonormal_basis(lights.normal[j])
         r, n = lights.radius[j], lights.normal[j]
-        start = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b + (DROP * r)[:, None] * n
-        hits = tracer.intersect(start, -n, tmax=2.0 * DROP * r)
+        on_plane = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b
+        start = tracer.offset_origin(on_plane + (DROP * r)[:, None] * n, n)  # above float32 noise far away
+        hits = tracer.intersect(start, -n, tmax=dot(start - on_plane, n) + DROP * r)
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
