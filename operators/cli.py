@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 import time
@@ -43,6 +44,8 @@ def cmd_render(args) -> int:
     from .output import check_target, render_to
 
     out = check_target(args.output, args.overwrite)
+    if os.path.exists(out) and os.path.exists(args.scene) and os.path.samefile(out, args.scene):
+        raise UserError(f"{out} is the scene being rendered; choose another output file")
     _ensure_registered()
     scene = _open_blend(args.scene)
     try:
@@ -53,6 +56,7 @@ def cmd_render(args) -> int:
     settings = scene.vpl_gi
     for flag in SETTING_FLAGS:
         if getattr(args, flag) is not None:
+            _check_range(settings, flag, getattr(args, flag))
             setattr(settings, flag, getattr(args, flag))
     if args.no_filter:
         settings.filter = False
@@ -66,11 +70,13 @@ def cmd_render(args) -> int:
     if args.frame is not None:
         scene.frame_set(args.frame)
     t0 = time.perf_counter()
-    render_to(scene, out)
-    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
-    if errors:
-        os.unlink(out)
-        raise UserError(errors[0])
+
+    def verify():  # before the image replaces anything: the engine's first error, if any, ends the run
+        errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
+        if errors:
+            raise UserError(errors[0])
+
+    render_to(scene, out, verify)
     for level, message in engine.LAST_REPORTS:
         if level == "WARNING":
             print(f"warning: {message}", file=sys.stderr)
@@ -82,9 +88,22 @@ def cmd_render(args) -> int:
         method += f" {info['vpls']} VPLs"
         if "kept_reverse_share" in info:
             method += f" ({info['kept_reverse_share'] * 100:.0f} % reverse)"
+        if "light_paths" in info:
+            method += f", {info['light_paths']} light paths"
     print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, {method}, "
           f"{time.perf_counter() - t0:.2f} s ({stages}), {stats.get('rays', 0) / 1e6:.1f} M rays")
     return 0
+
+
+def _check_range(settings, flag, value):
+    """Blender clamps a number outside its property's range without a word (and keeps NaN): refuse it instead."""
+    prop = settings.bl_rna.properties[flag]
+    if not hasattr(prop, "hard_min"):
+        return
+    if not (math.isfinite(value) and prop.hard_min <= value <= prop.hard_max):
+        high = f" and {prop.hard_max:g}" if prop.hard_max < 1e9 else ""
+        raise UserError(f"--{flag.replace('_', '-')} {value:g}: must be a number {'between' if high else 'of at least'} "
+                        f"{prop.hard_min:g}{high}")
 
 
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",

@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 
 from ..vpl_addon import passes as P
+from ..vpl_addon.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
 from .extract import ExtractionError, extract
 
@@ -54,6 +55,9 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         except ExtractionError as err:
             self._report("ERROR", str(err))
             return
+        except Exception as err:  # a bug: one line in the UI and on the command line, never a traceback
+            self._report("ERROR", _one_line(f"scene extraction failed ({type(err).__name__}: {err}); please report"))
+            return
         t_extract = time.perf_counter() - t0
         for warning in warnings:
             self._report("WARNING", warning)
@@ -69,6 +73,12 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             result = render(built, settings, progress)
         except Cancelled:
             self._report("INFO", "render cancelled")
+            return
+        except BadOutput as err:
+            self._report("ERROR", _one_line(f"{err} (a bug; please report it)"))
+            return
+        except Exception as err:
+            self._report("ERROR", _one_line(f"render failed ({type(err).__name__}: {err}); please report"))
             return
         for warning in result.warnings:
             self._report("WARNING", warning)
@@ -96,6 +106,10 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         for name, toggle, channels, ids in PASS_TOGGLES:
             if name in requested_passes(renderlayer):
                 self.register_pass(scene, renderlayer, name, channels, ids, "COLOR")
+
+
+def _one_line(message: str) -> str:
+    return " ".join(message.split())
 
 
 def get_panels():

@@ -207,6 +207,20 @@ def _light(obj, matrix, warnings):
     return None
 
 
+def _broken_light(obj, matrix, light) -> str | None:
+    """Why a light that the user meant to shine gives no light (None when it is fine or merely switched off)."""
+    data = obj.data
+    if not np.isfinite(_matrix(matrix)).all():
+        return "its transform has non-finite values"
+    if not (np.isfinite(data.color[:3]).all() and math.isfinite(data.energy)):
+        return "its colour or power is not finite"
+    if data.type == "AREA" and data.energy > 0 and not light.is_active:
+        return "it has zero size"
+    if data.energy > 0 and not light.is_active:
+        return "its direction or size is not usable"
+    return None
+
+
 def _world(scene, warnings) -> np.ndarray:
     world = scene.world
     if world is None:
@@ -235,6 +249,10 @@ def camera_of(scene) -> Camera:
     if cam.type not in {"PERSP", "ORTHO"}:
         raise ExtractionError(f"camera {cam_obj.name!r}: type {cam.type} is not supported (use Perspective or "
                               f"Orthographic)")
+    matrix = _matrix(cam_obj.matrix_world)
+    if not np.isfinite(matrix).all():
+        raise ExtractionError(f"camera {cam_obj.name!r}: its transform has non-finite values (location, rotation "
+                              f"or scale)")
     r = scene.render
     width = max(1, int(r.resolution_x * r.resolution_percentage / 100))
     height = max(1, int(r.resolution_y * r.resolution_percentage / 100))
@@ -243,7 +261,7 @@ def camera_of(scene) -> Camera:
                          ortho_scale=cam.ortho_scale, shift_x=cam.shift_x, shift_y=cam.shift_y,
                          pixel_aspect=r.pixel_aspect_y / r.pixel_aspect_x)
     cycles = getattr(scene, "cycles", None)  # the pixel filter is Cycles' setting, so both engines match
-    return Camera(_matrix(cam_obj.matrix_world), width, height, window, orthographic=cam.type == "ORTHO",
+    return Camera(matrix, width, height, window, orthographic=cam.type == "ORTHO",
                   clip_start=cam.clip_start, clip_end=cam.clip_end,
                   filter_type=getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"),
                   filter_width=getattr(cycles, "filter_width", r.filter_size))
@@ -263,6 +281,9 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
         if obj.type == "LIGHT":
             light = _light(obj, inst.matrix_world, warnings)
             if light is not None:
+                broken = _broken_light(obj, inst.matrix_world, light)
+                if broken:
+                    warnings.append(f"light {obj.name!r}: {broken}; it gives no light")
                 lights.append(light)
         elif obj.type in GEOMETRY_TYPES:
             arrays = _mesh_arrays(obj, inst.matrix_world, materials, names.setdefault(obj.name, len(names)))

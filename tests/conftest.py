@@ -50,9 +50,9 @@ def plane_scene(lights=(), world=(0.0, 0.0, 0.0), size=10.0, height=5.0, res=32,
 
 def pytest_terminal_summary(terminalreporter):
     """What the stress suite (tests/stress) covered, at the end of a run that included it."""
-    module = sys.modules.get("test_hostile_scenes")
-    if module is not None and module.RESULTS["cases"]:
+    module = sys.modules.get("stress_scenes")
+    if module is not None and module.RESULTS["renders"]:
         r = module.RESULTS
-        terminalreporter.write_line(f"stress suite: {len(module.CASES)} hostile scenes x {len(module.METHODS)} "
-                                    f"methods = {r['cases']} renders, {r['bad_pixels']} non-finite or negative "
-                                    f"values")
+        terminalreporter.write_line(f"stress suite: {len(r['scenes'])} hostile scenes, {r['renders']} renders over "
+                                    f"methods {', '.join(module.METHODS)}: {r['bad_values']} non-finite or "
+                                    f"negative values")

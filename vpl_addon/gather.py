@@ -26,6 +26,10 @@ class GatherSettings:
     clamp: float = 0.5  # d_min as a multiple of the mean VPL spacing sqrt(area / (pi N)); 0 = no clamping
     filter: bool = True  # geometry-aware filter after interleaving
 
+    def __post_init__(self):
+        if not (np.isfinite(self.clamp) and self.clamp >= 0.0):  # NaN would spread to every pixel of the gather
+            raise ValueError(f"clamp must be a finite number of at least 0 (got {self.clamp})")
+
 
 def clamp_distance(surface_area: float, count: int, clamp: float) -> float:
     """d_min = clamp * sqrt(area / (pi N)): the radius of the disc each of N VPLs stands for."""

@@ -76,7 +76,14 @@ class Light:
 
     @property
     def is_active(self) -> bool:
-        return bool(np.isfinite(self.flux_estimate(1.0)) and self.flux_estimate(1.0) > 0.0)
+        """Emits and is well defined: a light with NaN or infinite numbers (a broken transform), or without a
+        direction, is inert rather than a source of NaN."""
+        flux = self.flux_estimate(1.0)
+        numbers = [v for v in vars(self).values() if isinstance(v, (float, np.ndarray))]
+        directions = [getattr(self, k) for k in ("direction", "normal") if isinstance(getattr(self, k, None),
+                                                                                  np.ndarray)]
+        return bool(np.isfinite(flux) and flux > 0.0 and all(np.isfinite(v).all() for v in numbers)
+                    and all(np.linalg.norm(d) > 0.0 for d in directions))
 
     def flux_estimate(self, scene_radius: float) -> float:
         """Approximate emitted power (luminance-weighted), used only to choose between lights."""

@@ -24,12 +24,14 @@ class BadOutput(RuntimeError):
 
 
 def check(passes: dict[str, np.ndarray], stage: str) -> None:
-    """Count non-finite and negative values in every pass and fail loudly, naming the pass and the stage."""
+    """Count non-finite and negative values in every array and fail loudly, naming the array and the stage
+    (e.g. ``method 'bidir', stage 'gather'``). Never zeroes anything: a bad value is a bug to fix, not to hide."""
     problems = []
     for name, image in passes.items():
+        image = np.asarray(image)
         nonfinite = int((~np.isfinite(image)).sum())
         negative = int((image < 0).sum())
         if nonfinite or negative:
             problems.append(f"{name}: {nonfinite} non-finite, {negative} negative values")
     if problems:
-        raise BadOutput(f"{stage} produced bad values ({'; '.join(problems)})")
+        raise BadOutput(f"{stage}: {'; '.join(problems)}")

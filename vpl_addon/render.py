@@ -38,7 +38,7 @@ class RenderSettings:
     light_samples: int = 8  # next-event samples per camera sample for direct light
     seed: int = 0
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
-    method: str = "bidir"  # how virtual lights are placed: ir, bidir, vbnl, or none (no indirect light)
+    method: str = "vbnl"  # how virtual lights are placed: vbnl, bidir, ir, or none (no indirect light)
     indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)
@@ -82,6 +82,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     cam = scene.camera
     w, h = cam.width, cam.height
     result = RenderResult(passes={})
+
+    def guard(stage, arrays):  # a bad value fails the render naming the method and the stage that made it
+        P.check(arrays, f"method {settings.method!r}, stage {stage!r}")
     for name, count in scene.dropped.items():
         result.warnings.append(f"object {name!r}: {count} degenerate or non-finite triangles skipped")
     t0 = time.perf_counter()
@@ -103,6 +106,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             t0 = time.perf_counter()
             context = MethodContext(scene, tracer, lights, np.random.default_rng([settings.seed, 1 << 20]), bounces)
             vpls, result.info = place(settings.method, context, settings.placement)
+            guard("place", {"VPL intensity": vpls.intensity})
             if sampled is None:
                 d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
                 permutation = context.rng.permutation(len(vpls))
@@ -131,6 +135,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             marks = {"start": time.perf_counter()}
             gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
             surf = gbuf.surface
+            guard("G-buffer", {P.DIFFUSE_COLOR: surf.albedo, P.EMIT: surf.emission})
             marks["gbuffer"] = time.perf_counter()
             if need_direct:
                 # the light samples of a pixel: scrambled nets, dealt to its camera samples in random order
@@ -146,6 +151,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     deal = np.argsort(rng.random((len(pixels), count)), axis=1)
                     numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
                 direct = diffuse_direct(surf, lights, tracer, settings.light_samples, rng, numbers=tuple(numbers))
+                guard("direct light", {P.DIFFUSE_DIRECT: direct})
             else:
                 direct = 0.0
             marks["direct"] = time.perf_counter()
@@ -159,6 +165,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 else:
                     light = sampled(surf.take(np.repeat(rows, repeats)), vpls, context, settings.placement, rng)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
+                guard("gather", {P.DIFFUSE_INDIRECT: light})
                 local = gbuf.sample[rows] // gbuf.spp
                 indirect[pixels] = group_sum(local, light, len(pixels)) / gather_spp
                 guide_position[pixels] = group_sum(local, sub.position, len(pixels))
@@ -196,6 +203,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             indirect = deinterleave(indirect.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
                                     valid.reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
                                     settings.gather.interleave).reshape(-1, 3)
+            guard("filter", {P.DIFFUSE_INDIRECT: indirect})
         images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect
         timing["filter"] = time.perf_counter() - t0
         result.info["vpls"] = len(vpls)
@@ -205,5 +213,5 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     result.rays = tracer.rays_traced
     result.passes = {name: images[name].reshape(h, w, -1).astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}
-    P.check(result.passes, f"rendering with method {settings.method!r}")
+    guard("output", result.passes)
     return result

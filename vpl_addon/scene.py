@@ -3,11 +3,12 @@
 Everything downstream of extraction reads only this. It is built either from Blender (``operators/extract.py``)
 or directly in code (tests, stress scenes). ``Scene.build`` sanitises the input on purpose: triangles with
 non-finite corners or zero area are dropped (and counted per object so the caller can name them), shading normals
-that are missing, non-finite or zero fall back to the geometric normal, non-finite UVs become 0.
+that are missing, non-finite or zero fall back to the geometric normal, non-finite UVs become 0, non-finite or
+negative texels become 0 and a material whose texture does not exist uses its Base Color.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -105,12 +106,19 @@ class Scene:
             sn = np.where(bad[..., None], ng[:, None, :], sn)
         uvs = np.nan_to_num(uvs, nan=0.0, posinf=0.0, neginf=0.0)
         material = np.where((material >= 0) & (material < len(materials.names)), material, 0).astype(np.int32)
+        textures = [np.maximum(np.nan_to_num(np.asarray(t, np.float32), nan=0.0, posinf=0.0), 0.0)
+                    for t in textures]
+        tex = materials.texture
+        usable = np.array([i < 0 or (i < len(textures) and textures[i].ndim == 3 and textures[i].size > 0)
+                           for i in tex], bool)
+        if not usable.all():  # a copy: the caller's table stays as it was
+            materials = replace(materials, texture=np.where(usable, tex, -1).astype(np.int32))
 
         return Scene(triangles=tri.astype(np.float32), normals=sn.astype(np.float32), uvs=uvs.astype(np.float32),
                      material=material, object_id=object_id.astype(np.int32), object_names=object_names,
                      materials=materials, lights=[l for l in lights if l.is_active], camera=camera,
                      world=np.maximum(np.nan_to_num(np.asarray(world, np.float32), nan=0.0, posinf=0.0), 0.0),
-                     textures=[np.asarray(t, np.float32) for t in textures], dropped=dropped,
+                     textures=textures, dropped=dropped,
                      max_bounces=max(0, int(max_bounces)))
 
     @property

@@ -43,8 +43,7 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     b0 = 1.0 - b1 - b2
     tri = scene.triangles[prim].astype(np.float64)
     position = b0 * tri[:, 0] + b1 * tri[:, 1] + b2 * tri[:, 2]
-    ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])  # the hit triangles' only, not the scene's
-    ng = ng / np.linalg.norm(ng, axis=1, keepdims=True) if len(prim) else np.zeros((0, 3))
+    ng = normalize(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))  # of these triangles only: O(hits)
     flip = dot(ng, dirs[rows]) > 0.0
     ng = np.where(flip[:, None], -ng, ng)
     cn = scene.normals[prim].astype(np.float64)

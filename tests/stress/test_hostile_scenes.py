@@ -1,146 +1,189 @@
 """Hostile scenes built in code, rendered by every method: the output is finite and non-negative, or the run
-stops with a message naming the problem. A first part of the stress suite (issue 8); the counts of cases and of
-bad pixels are printed at the end of the run."""
+stops with a message naming the problem (issue 8). The counts of scenes, renders and bad values are printed at the
+end of the run (tests/conftest.py)."""
 import numpy as np
 import pytest
 
-from vpl_addon import passes as P
+from stress_scenes import (budget, ALBEDO_ONE, BLACK, METHODS, WHITE, box, look_at, room, small_settings, tally,
+                           with_triangles)
 from vpl_addon.camera import Camera, view_window
 from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
-from vpl_addon.methods import MethodSettings
-from vpl_addon.render import RenderSettings, render
 from vpl_addon.scene import Materials, Scene
-
-METHODS = ("none", "ir", "bidir")
-RESULTS = {"cases": 0, "bad_pixels": 0}  # printed at the end of the run by tests/conftest.py
-WHITE = Materials.make([{"name": "white", "base_color": (0.8, 0.8, 0.8)}])
-ALBEDO_ONE = Materials.make([{"name": "one", "base_color": (1.0, 1.0, 1.0)}])
-BLACK = Materials.make([{"name": "black", "base_color": (0.0, 0.0, 0.0)}])
+from vpl_addon.render import render
 
 
-def look_at(eye, target, res=16, lens=20.0):
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    back = eye - target
-    back /= np.linalg.norm(back)
-    right = np.cross([0, 0, 1.0], back) if abs(back[2]) < 0.999 else np.array([1.0, 0, 0])
-    right /= np.linalg.norm(right)
-    up = np.cross(back, right)
+def camera(res=(16, 16), orthographic=False, lens=20.0, ortho_scale=2.0, eye=(0.5, -0.9, 1.0), clip=(1e-6, 1e30)):
+    """A camera in the room looking along +Y (orthographic or perspective), of any resolution and clipping."""
     m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = right, up, back, eye
-    return Camera(m, res, res, view_window(res, res, orthographic=False, lens=lens), clip_start=1e-6)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = [1, 0, 0], [0, 0, 1], [0, -1, 0], eye
+    window = view_window(*res, orthographic=orthographic, lens=lens, ortho_scale=ortho_scale)
+    return Camera(m, *res, window, orthographic=orthographic, clip_start=clip[0], clip_end=clip[1])
 
 
-def box(lo, hi, inward=True):
-    """12 triangles of an axis-aligned box, facing in (a room) or out (a block)."""
-    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
-    c = np.array([[x, y, z] for z in (lo[2], hi[2]) for y in (lo[1], hi[1]) for x in (lo[0], hi[0])])
-    quads = [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)]
-    tris = []
-    for a, b, cc, d in quads:
-        tris += [(a, b, cc), (a, cc, d)] if not inward else [(a, cc, b), (a, d, cc)]
-    return c[np.array(tris)]
-
-
-def room(scale=1.0, offset=(0, 0, 0), lights=None, materials=WHITE, world=(0, 0, 0), eye=None, res=16):
-    """A closed 2 m room (scaled and moved), camera inside, a point light under the ceiling."""
-    off = np.asarray(offset, float)
-    tri = box([-1, -1, 0], [1, 1, 2]) * scale + off
-    lights = [PointLight("lamp", off + np.array([0, 0, 1.8]) * scale, [100.0 * scale ** 2] * 3)] \
-        if lights is None else lights
-    cam = look_at(off + np.array(eye or [0.5, -0.9, 1.0]) * scale, off + np.array([0, 0.5, 0.6]) * scale, res)
-    return Scene.build(tri, materials, lights, cam, material=np.ones(len(tri), int), world=world)
-
-
-def with_triangles(scene, extra, material=1):
-    tri = np.concatenate([scene.triangles, np.asarray(extra, float).reshape(-1, 3, 3)])
-    mat = np.concatenate([scene.material, np.full(len(tri) - len(scene.triangles), material)])
-    return Scene.build(tri, scene.materials, scene.lights, scene.camera, material=mat, world=scene.world)
+def materials(**row):
+    return Materials.make([{"name": "hostile", **row}])
 
 
 def cases():
+    """(name, scene, render-setting overrides): each a different hazard."""
     base = room()
-    yield "plain room", base
+    solid_block = box([0.3, 0.3, 0.1], [0.7, 0.7, 0.5], False)
+    open_box = box([-1, -1, 0], [1, 1, 2])[2:]  # no floor... and no ceiling: lit from outside
+    outside = look_at([0, -3, 1], [0, 0, 1])
+    # geometry
+    yield "plain room", base, {}
     yield "degenerate and zero-area triangles", with_triangles(base, [
         [[0, 0, 1], [0, 0, 1], [0, 0, 1]], [[0, 0, 1], [1, 0, 1], [2, 0, 1]],
-        [[0, 0, 1], [1e-20, 0, 1], [0, 1e-20, 1]]])
-    yield "duplicated coplanar triangles", with_triangles(base, base.triangles)
-    yield "coincident vertices of a fan", with_triangles(base, [[[0, 0, 0.5], [0.2, 0, 0.5], [0.2, 0.2, 0.5]]] * 5)
-    yield "light inside a closed block", with_triangles(
-        room(lights=[PointLight("boxed", [0.5, 0.5, 0.3], [100.0] * 3)]), box([0.3, 0.3, 0.1], [0.7, 0.7, 0.5], False))
-    yield "single-sided plane seen from behind", with_triangles(base, [[[-0.5, 0.3, 0.2], [0.5, 0.3, 1.2],
-                                                                        [0.5, 0.3, 0.2]]])
-    yield "black materials", room(materials=BLACK)
-    yield "albedo-1 closed room", room(materials=ALBEDO_ONE)
-    yield "tiny scene (1e-4 m)", room(scale=1e-4)
-    yield "huge scene (1e4 m)", room(scale=1e4)
-    yield "far from the origin (1e5 m)", room(offset=(1e5, -1e5, 1e5))
-    yield "very bright tiny light", room(lights=[PointLight("sun-in-a-box", [0, 0, 1], [1e12] * 3, radius=1e-6)])
-    yield "light on a surface", room(lights=[PointLight("on-floor", [0, 0, 0], [100.0] * 3)])
-    yield "only world light (open room)", Scene.build(box([-1, -1, 0], [1, 1, 2])[2:], WHITE, [],
-                                                       look_at([0, -3, 1], [0, 0, 1]),
-                                                       material=np.ones(10, int), world=(0.5, 0.6, 0.7))
-    yield "no light at all", room(lights=[])
+        [[0, 0, 1], [1e-20, 0, 1], [0, 1e-20, 1]]]), {}
+    yield "duplicated coplanar triangles", with_triangles(base, base.triangles), {}
+    yield "coincident vertices of a fan", with_triangles(base, [[[0, 0, 0.5], [0.2, 0, 0.5], [0.2, 0.2, 0.5]]] * 5), {}
+    yield "needle triangles (aspect 1e7)", with_triangles(base, [[[-1, 0.5 + 1e-7 * k, 0.1 * k], [1, 0.5, 0.1 * k],
+                                                                  [1, 0.5 + 2e-7, 0.1 * k + 1e-7]]
+                                                                 for k in range(1, 10)]), {}
+    yield "every triangle degenerate", Scene.build(np.zeros((12, 3, 3)), WHITE, base.lights, base.camera,
+                                                    material=np.ones(12, int)), {}
+    yield "no geometry at all", Scene.build(np.zeros((0, 3, 3)), WHITE, base.lights, base.camera,
+                                             world=(0.3, 0.3, 0.3)), {}
     yield "one triangle", Scene.build([[[-1, 1, 0], [1, 1, 0], [0, 1, 2]]], WHITE,
                                       [PointLight("p", [0, 0, 1], [10.0] * 3)], look_at([0, -2, 1], [0, 1, 1]),
-                                      material=[1])
+                                      material=[1]), {}
+    yield "single-sided plane seen from behind", with_triangles(base, [[[-0.5, 0.3, 0.2], [0.5, 0.3, 1.2],
+                                                                        [0.5, 0.3, 0.2]]]), {}
+    yield "room seen from outside through its back faces", room(camera=look_at([0, -4, 1], [0, 0, 1])), {}
+    yield "walls flipped inside out", Scene.build(box([-1, -1, 0], [1, 1, 2], inward=False), WHITE, base.lights,
+                                                  base.camera, material=np.ones(12, int)), {}
     nan_tri = base.triangles.copy()
     nan_tri[0, 0, 0] = np.nan
     nan_tri[1, 1, 2] = np.inf
-    yield "NaN and inf corners", Scene.build(nan_tri, WHITE, base.lights, base.camera, material=base.material)
+    yield "NaN and inf corners", Scene.build(nan_tri, WHITE, base.lights, base.camera, material=base.material), {}
     bad_n = np.full((len(base.triangles), 3, 3), np.nan)
     bad_uv = np.full((len(base.triangles), 3, 2), np.inf)
     yield "NaN normals and inf UVs", Scene.build(base.triangles, WHITE, base.lights, base.camera, normals=bad_n,
-                                                 uvs=bad_uv, material=base.material)
+                                                 uvs=bad_uv, material=base.material), {}
+    yield "zero-length and backward shading normals", Scene.build(
+        base.triangles, WHITE, base.lights, base.camera, material=base.material,
+        normals=np.concatenate([np.zeros((6, 3, 3)), -np.repeat(base.geometric_normals[6:, None], 3, 1)])), {}
+    yield "material ids out of range", Scene.build(base.triangles, WHITE, base.lights, base.camera,
+                                                   material=np.arange(12) * 1000 - 5000), {}
+    # scale and position
+    yield "tiny scene (1e-4 m)", room(scale=1e-4), {}
+    yield "huge scene (1e4 m)", room(scale=1e4), {}
+    yield "far from the origin (1e5 m)", room(offset=(1e5, -1e5, 1e5)), {}
+    # materials
+    yield "black materials", room(materials=BLACK), {}
+    yield "albedo-1 closed room", room(materials=ALBEDO_ONE), {}
+    yield "albedo-1 room, 100 bounces", room(materials=ALBEDO_ONE, max_bounces=100), {}
+    yield "fully metallic (no diffuse lobe)", room(materials=materials(metallic=1.0)), {}
+    yield "NaN, inf and out-of-range material values", room(materials=materials(
+        base_color=(np.nan, 7.0, -3.0), roughness=np.inf, metallic=np.nan, emission=(np.nan, -1.0, 0.0))), {}
+    yield "texture of NaN and inf texels", Scene.build(
+        base.triangles, materials(texture=0), base.lights, base.camera, material=base.material,
+        uvs=np.random.default_rng(0).random((12, 3, 2)) * 1e6,
+        textures=[np.array([[[np.nan, 1, 1], [np.inf, -5, 1]], [[1, 1, 1], [0.5, 0.5, 0.5]]])]), {}
+    yield "material refers to a missing texture", room(materials=materials(texture=3)), {}
+    # lights
+    yield "no light at all", room(lights=[]), {}
+    yield "only world light (open box)", Scene.build(open_box, WHITE, [], outside, material=np.ones(10, int),
+                                                      world=(0.5, 0.6, 0.7)), {}
+    yield "sun and world only", Scene.build(open_box, WHITE, [SunLight("sun", [0.3, 0.4, -1], [3.0] * 3, angle=0.1)],
+                                            outside, material=np.ones(10, int), world=(0.1, 0.1, 0.2)), {}
+    yield "grazing sun", room(lights=[SunLight("low sun", [1, 0, -1e-6], [3.0] * 3)]), {}
+    yield "very bright tiny light", room(lights=[PointLight("sun-in-a-box", [0, 0, 1], [1e12] * 3, radius=1e-6)]), {}
+    yield "light bigger than the room", room(lights=[PointLight("huge ball", [0, 0, 1], [100.0] * 3, radius=50.0)]), {}
+    yield "light on a surface", room(lights=[PointLight("on-floor", [0, 0, 0], [100.0] * 3)]), {}
+    yield "light in a corner of the room", room(lights=[PointLight("corner", [1, 1, 2], [100.0] * 3)]), {}
+    yield "light inside a closed block", with_triangles(
+        room(lights=[PointLight("boxed", [0.5, 0.5, 0.3], [100.0] * 3)]), solid_block), {}
+    yield "spot inside a closed block", with_triangles(
+        room(lights=[SpotLight("boxed spot", [0.5, 0.5, 0.3], [100.0] * 3, direction=[0, 0, 1])]), solid_block), {}
+    yield "spot of zero size", room(lights=[SpotLight("pin", [0, 0, 1.8], [100.0] * 3, spot_size=0.0)]), {}
+    yield "spot of full size, no blend", room(lights=[SpotLight("wide", [0, 0, 1.8], [100.0] * 3, spot_size=np.pi,
+                                                                spot_blend=0.0)]), {}
     yield "zero-sized area light", room(lights=[AreaLight("flat", [0, 0, 1.9], [0, 0, 0], [0, 0.5, 0], [0, 0, -1],
-                                                          [50.0] * 3)])
-    yield "NaN light power", room(lights=[PointLight("nan", [0, 0, 1.8], [np.nan, 1.0, np.inf])])
+                                                          [50.0] * 3)]), {}
+    yield "area light facing the ceiling it touches", room(lights=[
+        AreaLight("upside down", [0, 0, 2 - 1e-6], [0.5, 0, 0], [0, 0.5, 0], [0, 0, 1], [50.0] * 3)]), {}
+    yield "area light in the wall plane, tiny spread", room(lights=[
+        AreaLight("flush", [0, 0, 2], [0.5, 0, 0], [0, 0.5, 0], [0, 0, -1], [50.0] * 3, round=True, spread=1e-3)]), {}
+    yield "NaN light power", room(lights=[PointLight("nan", [0, 0, 1.8], [np.nan, 1.0, np.inf])]), {}
     yield "negative light power", room(lights=[PointLight("neg", [0, 0, 1.8], [-5.0] * 3),
-                                               PointLight("ok", [0, 0.5, 1.5], [50.0] * 3)])
-    yield "camera inside a solid block", with_triangles(room(eye=[0.5, 0.5, 0.3]),
-                                                        box([0.3, 0.3, 0.1], [0.7, 0.7, 0.5], False))
-    yield "grazing sun", room(lights=[SunLight("low sun", [1, 0, -1e-6], [3.0] * 3)])
-    yield "spot of zero size", room(lights=[SpotLight("pin", [0, 0, 1.8], [100.0] * 3, spot_size=0.0)])
+                                               PointLight("ok", [0, 0.5, 1.5], [50.0] * 3)]), {}
+    yield "NaN or zero light positions and directions", room(lights=[
+        PointLight("nan place", [np.nan, 0, 1], [50.0] * 3), SunLight("nan sun", [np.nan, 0, -1], [1.0] * 3),
+        SunLight("sun without direction", [0, 0, 0], [1.0] * 3),
+        AreaLight("nan area", [0, 0, 1.9], [np.inf, 0, 0], [0, 0.5, 0], [np.nan, 0, -1], [50.0] * 3),
+        SpotLight("nan spot", [0, 0, 1.8], [50.0] * 3, direction=[np.nan, np.nan, np.nan]),
+        PointLight("ok", [0, 0.5, 1.5], [50.0] * 3)]), {}
+    yield "two hundred lights", room(lights=[PointLight(f"l{i}", p, [1.0] * 3) for i, p in enumerate(
+        np.random.default_rng(1).uniform([-0.9, -0.9, 0.1], [0.9, 0.9, 1.9], (200, 3)))]), {}
+    yield "light a million metres away", room(lights=[PointLight("far", [1e6, 0, 1], [1e14] * 3)]), {}
+    glow = Materials.make([{"name": "w"}, {"name": "glow", "emission": (1e9, 1e9, 1e9)}])
     yield "emission a billion times the lights", with_triangles(
-        Scene.build(base.triangles, Materials.make([{"name": "w"}, {"name": "glow", "emission": (1e9, 1e9, 1e9)}]),
-                    base.lights, base.camera, material=base.material), [[[0, 0.9, 1], [0.1, 0.9, 1], [0, 0.9, 1.1]]],
-        material=2)
+        Scene.build(base.triangles, glow, base.lights, base.camera, material=base.material),
+        [[[0, 0.9, 1], [0.1, 0.9, 1], [0, 0.9, 1.1]]], material=2), {}
+    yield "degenerate emissive triangles only", with_triangles(
+        room(lights=[]), [[[0, 0.9, 1], [0, 0.9, 1], [0, 0.9, 1]], [[0, 0.9, 1], [1, 0.9, 1], [2, 0.9, 1]],
+                          [[0, 0.9, 1], [1e-9, 0.9, 1], [0, 0.9, 1 + 1e-9]]], material=2, materials=glow), {}
+    yield "camera looking straight into an emitter", Scene.build(
+        [[[-1, 1, 0], [1, 1, 0], [0, 1, 2]]], Materials.make([{"name": "lamp", "emission": (5.0, 5.0, 5.0)}]), [],
+        look_at([0, 0.999, 1], [0, 2, 1]), material=[1]), {}
+    # camera
+    yield "camera inside a solid block", with_triangles(room(eye=[0.5, 0.5, 0.3]), solid_block), {}
     yield "nothing in front of the camera", Scene.build(box([-1, -1, 0], [1, 1, 2]) + [0, 100, 0], WHITE,
                                                         base.lights, look_at([0, 0, 1], [0, -5, 1]),
-                                                        material=np.ones(12, int))
-    yield "light a million metres away", room(lights=[PointLight("far", [1e6, 0, 1], [1e14] * 3)])
+                                                        material=np.ones(12, int)), {}
+    yield "clip start beyond everything", room(camera=camera(clip=(1e3, 1e30))), {}
+    yield "clip end before clip start", room(camera=camera(clip=(1.0, 0.5))), {}
+    yield "one-pixel image", room(camera=camera(res=(1, 1))), {}
+    broken = base.camera.to_world.copy()
+    broken[0, 3] = np.nan
+    yield "camera with a NaN transform", room(camera=Camera(broken, 16, 16, base.camera.window)), {}
+    yield "camera scaled to zero", room(camera=Camera(np.diag([0.0, 0.0, 0.0, 1.0]), 16, 16,
+                                                      base.camera.window)), {}
+    yield "64x1 image", room(camera=camera(res=(64, 1))), {}
+    yield "fisheye-wide lens (1 mm)", room(camera=camera(lens=1.0)), {}
+    yield "orthographic, 1e-6 m view", room(camera=camera(orthographic=True, ortho_scale=1e-6)), {}
+    # settings
+    yield "one VPL, interleave tile larger than the image", base, dict(placement=budget(1),
+                                                                        gather=GatherSettings(interleave=32))
+    yield "no clamping of the geometry term", room(lights=[PointLight("corner", [0.99, 0.99, 0.01], [100.0] * 3)]), \
+        dict(gather=GatherSettings(clamp=0.0, interleave=1))
+    yield "bounce limit 0", room(max_bounces=0), {}
+    yield "no light samples, one camera sample", base, dict(samples=1, light_samples=0)
 
 
 CASES = list(cases())
 
 
 @pytest.mark.parametrize("method", METHODS)
-@pytest.mark.parametrize("name, scene", CASES, ids=[c[0] for c in CASES])
-def test_hostile_scene_renders_finite_non_negative(name, scene, method):
-    settings = RenderSettings(samples=4, light_samples=2, method=method, indirect_samples=1,
-                              placement=MethodSettings(vpls=64), gather=GatherSettings(interleave=2),
-                              passes=(P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT))
-    result = render(scene, settings)  # raises passes.BadOutput, naming method and stage, on any bad value
-    bad = sum(int((~np.isfinite(img)).sum() + (img < 0).sum()) for img in result.passes.values())
-    RESULTS["cases"] += 1
-    RESULTS["bad_pixels"] += bad
-    assert bad == 0
+@pytest.mark.parametrize("name, scene, overrides", CASES, ids=[c[0] for c in CASES])
+def test_hostile_scene_renders_finite_non_negative(name, scene, overrides, method):
+    """Every hostile scene renders with every method, and every pass is finite and non-negative (render() itself
+    raises passes.BadOutput naming the method and stage on any bad value)."""
+    result = render(scene, small_settings(method, **overrides))
+    assert tally(name, result) == 0
+    assert set(result.passes) >= {"Combined", "Diffuse Indirect"}
 
 
-def test_albedo_one_room_stays_below_its_energy_bound():
+def test_cases_are_many_and_distinct():
+    """Issue 8 asks for at least 50 hostile scenes; a name used twice would hide one of them."""
+    names = [c[0] for c in CASES]
+    assert len(names) >= 50 and len(set(names)) == len(names)
+
+
+@pytest.mark.parametrize("method", METHODS[1:])
+def test_albedo_one_room_stays_below_its_energy_bound(method):
     """A closed room of albedo 1 lit by a point light: each bounce up to the limit B adds at most the light's power
     again, so the mean indirect irradiance over the walls is B P / A; the pass (E / pi) seen by the camera stays
-    below a generous multiple of that."""
-    scene = room(materials=ALBEDO_ONE)
-    scene.max_bounces = 3
-    result = render(scene, RenderSettings(samples=4, light_samples=2, method="ir", placement=MethodSettings(vpls=512),
-                                          passes=(P.COMBINED, P.DIFFUSE_INDIRECT)))
+    below a generous multiple of that (the camera sees the walls unevenly)."""
+    scene = room(materials=ALBEDO_ONE, max_bounces=3)
+    result = render(scene, small_settings(method, placement=budget(512)))
     bound = scene.max_bounces * 100.0 / scene.surface_area / np.pi
-    assert 0.0 < result.passes[P.DIFFUSE_INDIRECT].mean() <= 3.0 * bound
+    assert 0.0 < result.passes["Diffuse Indirect"].mean() <= 3.0 * bound
 
 
-
-@pytest.mark.parametrize("method", ["ir", "bidir"])
+@pytest.mark.parametrize("method", METHODS[1:])
 @pytest.mark.parametrize("variant", [dict(scale=1e-4), dict(scale=1e4), dict(offset=(1e5, -1e5, 1e5))],
                          ids=["tiny", "huge", "far"])
 def test_scale_and_position_do_not_change_the_image(method, variant):
@@ -149,11 +192,25 @@ def test_scale_and_position_do_not_change_the_image(method, variant):
     from vpl_addon.metrics import errors
 
     def image(scene, seed):
-        settings = RenderSettings(samples=4, light_samples=2, method=method, seed=seed,
-                                  placement=MethodSettings(vpls=256), passes=(P.COMBINED, P.DIFFUSE_INDIRECT))
-        return render(scene, settings).passes[P.DIFFUSE_INDIRECT]
+        settings = small_settings(method, seed=seed, placement=budget(256), gather=GatherSettings())
+        return render(scene, settings).passes["Diffuse Indirect"]
 
     base = image(room(), 0)
     noise = errors(image(room(), 1), base)["rmae"]
     moved = errors(image(room(**variant), 0), base)["rmae"]
     assert moved < 1.5 * noise
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: small_settings("ir", samples=0), "samples"),
+    (lambda: small_settings("ir", light_samples=-1), "light samples"),
+    (lambda: small_settings("ir", placement=budget(0)), "VPL budget"),
+    (lambda: small_settings("ir", gather=GatherSettings(clamp=float("nan"))), "clamp"),
+    (lambda: small_settings("ir", gather=GatherSettings(clamp=-1.0)), "clamp"),
+    (lambda: small_settings("no such method"), "unknown method"),
+], ids=["samples 0", "light samples -1", "vpls 0", "clamp nan", "clamp -1", "unknown method"])
+def test_hostile_settings_are_refused_naming_the_setting(make, words):
+    """Settings that cannot render (a NaN clamp made every gathered pixel NaN) fail before any work, naming the
+    setting."""
+    with pytest.raises(ValueError, match=words):
+        make()
