@@ -4,7 +4,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 EMBREEX_WHEEL := embreex-4.4.0.post1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
-WHEELS := wheels/$(EMBREEX_WHEEL)
+SCIPY_WHEEL := scipy-1.17.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
+WHEELS := wheels/$(EMBREEX_WHEEL) wheels/$(SCIPY_WHEEL)
 DEMO_SCENE := example_blends/cornell_area.blend
 
 .PHONY: venv test test-all demo wheels extension examples bench clean
@@ -20,11 +21,11 @@ $(STAMP): requirements.txt
 # Runtime wheels bundled into the extension (fetched, never committed).
 wheels: $(WHEELS)
 
-$(WHEELS): | $(STAMP)
+$(WHEELS) &: | $(STAMP)
 	mkdir -p wheels
 	$(BIN)/python -m pip download --quiet --no-deps --only-binary=:all: --python-version 3.11 \
-		--implementation cp --platform manylinux_2_28_x86_64 -d wheels embreex==4.4.0.post1
-	test -f $@
+		--implementation cp --platform manylinux_2_28_x86_64 -d wheels embreex==4.4.0.post1 scipy==1.17.1
+	test -f wheels/$(EMBREEX_WHEEL) && test -f wheels/$(SCIPY_WHEEL)
 
 test: $(STAMP) $(WHEELS)
 	$(BIN)/python -m pytest

@@ -60,6 +60,8 @@ def cmd_render(args) -> int:
             setattr(settings, flag, getattr(args, flag))
     if args.no_filter:
         settings.filter = False
+    if args.no_path_extension:
+        settings.path_extension = False
     if args.percentage is not None:
         scene.render.resolution_percentage = args.percentage
     for layer in scene.view_layers:
@@ -102,7 +104,8 @@ def _check_range(settings, flag, value):
                         f"{prop.hard_min:g}{high}")
 
 
-SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave")
+SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",
+                 "photons", "vbnl_samples", "elimination")
 
 
 def cmd_reference(args) -> int:
@@ -144,12 +147,17 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--samples", type=int, help="camera samples per pixel")
     r.add_argument("--light-samples", type=int, help="shadow rays per camera sample for direct light")
     r.add_argument("--seed", type=int, help="random seed")
-    r.add_argument("--method", choices=("bidir", "ir", "none"), help="how VPLs are placed (default bidir)")
+    r.add_argument("--method", choices=("vbnl", "bidir", "ir", "none"),
+                   help="how virtual lights are placed (default: the scene's setting)")
     r.add_argument("--vpls", type=int, help="VPL budget: the lights the gather uses")
     r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
     r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
     r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
-    r.add_argument("--no-filter", action="store_true", help="skip the filter after interleaving")
+    r.add_argument("--no-filter", action="store_true", help="skip the geometry-aware filter of the indirect light")
+    r.add_argument("--photons", type=int, help="vbnl: light paths traced for photon splitting")
+    r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel")
+    r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
+    r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
     r.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
     r.set_defaults(run=cmd_render)

@@ -33,9 +33,15 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         sub = col.column()
         sub.active = settings.method != "none"
         sub.prop(settings, "vpls")
-        sub.prop(settings, "indirect_samples")
-        sub.prop(settings, "clamp")
-        sub.prop(settings, "interleave")
+        if settings.method == "vbnl":
+            sub.prop(settings, "vbnl_samples")
+            sub.prop(settings, "photons")
+            sub.prop(settings, "elimination")
+            sub.prop(settings, "path_extension")
+        else:
+            sub.prop(settings, "indirect_samples")
+            sub.prop(settings, "clamp")
+            sub.prop(settings, "interleave")
         sub.prop(settings, "filter")
 
 

@@ -5,11 +5,16 @@ import bpy
 
 from ..vpl_addon.gather import GatherSettings
 from ..vpl_addon.methods import MethodSettings
+from ..vpl_addon.methods.vbnl import VBNLSettings
 from ..vpl_addon.render import RenderSettings
+from ..vpl_addon.virtual_light_sampling import SamplingSettings
 
 _RENDER, _GATHER, _PLACE = RenderSettings(), GatherSettings(), MethodSettings()
+_VBNL = _PLACE.vbnl
 
 METHOD_ITEMS = (
+    ("vbnl", "Virtual Blue Noise Lighting", "Li et al. 2022: lights placed from the camera in a blue-noise "
+                                            "pattern, lit by photon splitting, sampled with MIS and path extension"),
     ("bidir", "Bidirectional IR", "Segovia et al. 2006: VPLs from the lights and from the camera, resampled by the "
                                   "power they bring to the image (robust when light comes through a door)"),
     ("ir", "Instant Radiosity", "Keller 1997: VPLs where light paths from the lights bounce"),
@@ -28,8 +33,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Method", items=METHOD_ITEMS, default=_RENDER.method,
         description="How virtual point lights are placed for indirect light")
     vpls: bpy.props.IntProperty(
-        name="VPLs", default=_PLACE.vpls, min=1, soft_max=65536,
-        description="Virtual point lights the gather uses: more is smoother and slower")
+        name="VPLs", default=_PLACE.vpls, min=1, soft_max=1 << 20,
+        description="Virtual lights the gather uses: more is smoother (and slower for the summing methods)")
     indirect_samples: bpy.props.IntProperty(
         name="Indirect Samples", default=_RENDER.indirect_samples, min=1, soft_max=64,
         description="Camera samples per pixel that gather light from the VPLs (at most Samples)")
@@ -43,6 +48,21 @@ class VPLGISettings(bpy.types.PropertyGroup):
     filter: bpy.props.BoolProperty(
         name="Filter", default=_GATHER.filter,
         description="Geometry-aware filter that removes the interleaving pattern")
+    photons: bpy.props.IntProperty(
+        name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
+        description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother")
+    vbnl_samples: bpy.props.IntProperty(
+        name="Gather Samples", default=_VBNL.sampling.samples, min=1, soft_max=1024,
+        description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each)")
+    elimination: bpy.props.EnumProperty(
+        name="Sample Elimination", default=_VBNL.elimination,
+        items=(("adaptive", "Adaptive", "Blue noise that keeps the density the camera asks for (eq. 2)"),
+               ("uniform", "Uniform", "Blue noise with one radius everywhere (eq. 1)"),
+               ("none", "None", "A random subset of the candidates")),
+        description="How the VBNL candidates are thinned to the light budget")
+    path_extension: bpy.props.BoolProperty(
+        name="Path Extension", default=_VBNL.sampling.extension,
+        description="Extend camera paths where the virtual lights are too sparse for the footprint (eq. 6-9)")
     seed: bpy.props.IntProperty(
         name="Seed", default=_RENDER.seed, min=0,
         description="Seed of the random numbers: the same seed gives the same image")
@@ -50,7 +70,10 @@ class VPLGISettings(bpy.types.PropertyGroup):
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               method=self.method, indirect_samples=self.indirect_samples,
-                              placement=MethodSettings(vpls=self.vpls),
+                              placement=MethodSettings(vpls=self.vpls, vbnl=VBNLSettings(
+                                  photons=self.photons, elimination=self.elimination,
+                                  sampling=SamplingSettings(samples=self.vbnl_samples,
+                                                            extension=self.path_extension))),
                               gather=GatherSettings(interleave=self.interleave, clamp=self.clamp, filter=self.filter))
 
 

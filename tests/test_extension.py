@@ -51,7 +51,7 @@ def test_extension_builds_validates_installs_and_renders(tmp_path):
     from vpl_addon.exr import read_passes
     tool = blender_ext_tool()
     missing = [w for w in ("wheels",) if not (ROOT / w).is_dir()]
-    assert not missing, "run `make wheels` first: the extension bundles the embreex wheel"
+    assert not missing, "run `make wheels` first: the extension bundles the embreex and scipy wheels"
     dist = tmp_path / "dist"
     dist.mkdir()
     run(tool, "build", "--source-dir", ROOT, "--output-dir", dist)
@@ -65,5 +65,7 @@ def test_extension_builds_validates_installs_and_renders(tmp_path):
     assert engine_file.startswith(str(user)), "the render must run the installed copy, not the checkout"
     assert list(user.glob("extensions/.local/lib/python3.11/site-packages/embreex/rtcore_scene*.so")), \
         "the bundled embreex wheel was not installed"
+    assert list(user.glob("extensions/.local/lib/python3.11/site-packages/scipy/spatial/_ckdtree*.so")), \
+        "the bundled scipy wheel was not installed"
     passes, _ = read_passes(str(out))
     assert passes["Diffuse Direct"].shape == (64, 64, 3) and passes["Diffuse Direct"].mean() > 0.05

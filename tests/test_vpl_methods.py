@@ -7,6 +7,7 @@ from vpl_addon.gather import GatherSettings, clamp_distance, gather
 from vpl_addon.light_paths import trace_until
 from vpl_addon.lights import AreaLight, EmissiveTriangles, LightSet, PointLight, SpotLight, SunLight, WorldLight
 from vpl_addon.methods import MethodSettings
+from vpl_addon.methods.vbnl import VBNLSettings
 from vpl_addon.render import RenderSettings, render
 from vpl_addon.resampling import resample
 from vpl_addon.scene import Materials, Scene
@@ -118,15 +119,16 @@ def test_systematic_resampling_is_unbiased_and_keeps_the_budget():
     assert np.mean(means) == pytest.approx(values.sum(), rel=0.02)
 
 
-@pytest.mark.parametrize("method", ["ir", "bidir"])
+@pytest.mark.parametrize("method", ["ir", "bidir", "vbnl"])
 def test_methods_light_a_floor_under_a_lamp_like_each_other(method):
-    """A lamp over a floor with a wall: indirect light on the floor comes off the wall. Both methods agree on it
-    with an exact gather, and nothing is negative or non-finite."""
+    """A lamp over a floor with a wall: indirect light on the floor comes off the wall. Every method agrees on it
+    (the summing ones with an exact gather), and nothing is negative or non-finite."""
     wall = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
     base = plane_scene([PointLight("p", [0, 0.5, 1], [100.0] * 3)], size=5, view=1.0, res=16)
     scene = Scene.build(np.concatenate([base.triangles, wall]), base.materials, base.lights, base.camera,
                         max_bounces=1)
-    settings = RenderSettings(samples=4, light_samples=0, method=method, placement=MethodSettings(vpls=2048),
+    settings = RenderSettings(samples=4, light_samples=0, method=method,
+                              placement=MethodSettings(vpls=2048, vbnl=VBNLSettings(photons=1 << 17)),
                               gather=GatherSettings(interleave=1, clamp=0.0))
     image = render(scene, settings).passes["Combined"][..., 0]
     expected = render(scene, RenderSettings(samples=4, light_samples=0, method="ir",

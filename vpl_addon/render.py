@@ -38,7 +38,7 @@ class RenderSettings:
     light_samples: int = 8  # next-event samples per camera sample for direct light
     seed: int = 0
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
-    method: str = "bidir"  # how VPLs are placed: ir, bidir, or none (no indirect light)
+    method: str = "bidir"  # how virtual lights are placed: ir, bidir, vbnl, or none (no indirect light)
     indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)
@@ -99,15 +99,17 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
     need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
         settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
-    vpls, d_min, permutation = None, 0.0, None
+    vpls, d_min, permutation, context = None, 0.0, None, None
+    sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
     try:
         if need_indirect:
             t0 = time.perf_counter()
             context = MethodContext(scene, tracer, lights, np.random.default_rng([settings.seed, 1 << 20]), bounces)
             vpls, result.info = place(settings.method, context, settings.placement)
             guard("place", {"VPL intensity": vpls.intensity})
-            d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
-            permutation = context.rng.permutation(len(vpls))
+            if sampled is None:
+                d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
+                permutation = context.rng.permutation(len(vpls))
             result.seconds["place"] = time.perf_counter() - t0
             need_indirect = len(vpls) > 0
 
@@ -117,7 +119,12 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
         cancelled = threading.Event()
-        gather_spp = min(settings.indirect_samples, settings.samples)
+        if sampled is None:
+            gather_spp, repeats = min(settings.indirect_samples, settings.samples), 1
+        else:  # the method's sample pairs per pixel, spread over the camera samples
+            pairs = METHODS[settings.method].gather_samples(settings.placement)
+            gather_spp = min(pairs, settings.samples)
+            repeats = -(-pairs // gather_spp)
 
         def shade_block(number: int):
             """Everything for one block of pixels; blocks run concurrently (numpy and embree release the GIL)."""
@@ -151,9 +158,13 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             if need_indirect:
                 rows = np.nonzero(gbuf.sample % gbuf.spp < gather_spp)[0]
                 sub = surf.take(rows)
-                pix = gbuf.pixel_of_hit[rows]
-                light = gather(sub, np.stack([pix % w, pix // w], 1), vpls, tracer, settings.gather, d_min,
-                               permutation)
+                if sampled is None:
+                    pix = gbuf.pixel_of_hit[rows]
+                    light = gather(sub, np.stack([pix % w, pix // w], 1), vpls, tracer, settings.gather, d_min,
+                                   permutation)
+                else:
+                    light = sampled(surf.take(np.repeat(rows, repeats)), vpls, context, settings.placement, rng)
+                    light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
                 local = gbuf.sample[rows] // gbuf.spp
                 indirect[pixels] = group_sum(local, light, len(pixels)) / gather_spp

@@ -2,16 +2,18 @@
 
 ``place(context, settings) -> (VirtualLights, info)`` where ``context`` carries the scene, tracer, lights,
 bounce limit and random generator, and ``info`` is a dict of figures worth reporting (paths traced, shares...).
-The gather consumes the lights the same way whatever placed them."""
+Lights that are summed (VPLs) go to the one interleaved ``gather``; a method whose lights are sampled instead
+(``vbnl``'s photon lights) brings its own ``gather(surface, lights, context, settings, rng)`` and
+``gather_samples(settings)``, the sample pairs per pixel."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bidir, ir
+from . import bidir, ir, vbnl
 
-METHODS = {"ir": ir, "bidir": bidir}
+METHODS = {"ir": ir, "bidir": bidir, "vbnl": vbnl}
 
 
 @dataclass
@@ -27,6 +29,7 @@ class MethodContext:
 class MethodSettings:
     vpls: int = 4096  # VPL budget: the number of lights the gather sees (bidir: kept after resampling)
     bidir: bidir.BidirSettings = field(default_factory=bidir.BidirSettings)
+    vbnl: vbnl.VBNLSettings = field(default_factory=vbnl.VBNLSettings)
 
 
 def place(name: str, context: MethodContext, settings: MethodSettings):

@@ -1,0 +1,134 @@
+"""Virtual Blue Noise Lighting (Li, Wang, Lin, Yuksel, HPG 2022): lights placed from the camera, thinned to blue
+noise, lit by photon splitting, and sampled with MIS and camera path extension when rendering.
+
+``place`` follows sec. 3:
+1. candidates (sec. 3.1): M = ``candidates`` x N camera samples, the same number in every pixel; at each primary
+   hit x a BSDF-sampled (cosine) ray finds y, a point the gather can see: the candidate. (Diffuse surfaces only:
+   the extension of the camera path on highly specular surfaces, Fig. 6b, comes with glossy materials.)
+2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
+3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
+   never stored, share the intensity of every vertex among the lights covering it.
+``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..gbuffer import GBuffer
+from ..light_paths import trace_paths
+from ..photon_lights import ALPHA, PhotonLights
+from ..sample_elimination import MODES, eliminate
+from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
+from ..surface import shade
+from .. import virtual_light_sampling
+
+PATHS_PER_BATCH = 1 << 16
+PIXELS_PER_BATCH = 1 << 14
+POINTS_PER_BATCH = 1 << 18
+DROP = 0.1  # catchment rays start this many radii above the light's tangent plane
+
+
+@dataclass
+class VBNLSettings:
+    candidates: int = 10  # M / N: camera candidates per kept light
+    elimination: str = "adaptive"  # adaptive (eq. 2), uniform (eq. 1) or none (random subset)
+    local: int = 32  # m of eq. 2: the neighbours that estimate a candidate's local density
+    photons: int = 1 << 18  # light paths traced for photon splitting
+    area_samples: int = 32  # surface points per light that measure its catchment
+    sampling: virtual_light_sampling.SamplingSettings = field(
+        default_factory=virtual_light_sampling.SamplingSettings)
+
+    def __post_init__(self):
+        if self.elimination not in MODES:
+            raise ValueError(f"unknown sample elimination {self.elimination!r}; choose one of {', '.join(MODES)}")
+        if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 1:
+            raise ValueError("vbnl needs candidates >= 1, photons >= 0 and samples >= 1")
+
+
+def candidates(scene, tracer, count: int, rng: np.random.Generator):
+    """(positions, normals) of about ``count`` points seen from camera-path ends (sec. 3.1), equal samples per
+    pixel; normals face the point that found them."""
+    cam = scene.camera
+    pixels = cam.width * cam.height
+    spp = max(1, math.ceil(count / pixels))
+    found_p, found_n = [], []
+    for lo in range(0, pixels, max(1, PIXELS_PER_BATCH // spp)):
+        block = np.arange(lo, min(pixels, lo + max(1, PIXELS_PER_BATCH // spp)))
+        x = GBuffer.build(scene, tracer, block, spp, rng).surface
+        w, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
+        ok = np.nonzero(dot(w, x.geometric_normal) > 0.0)[0]
+        hits = tracer.intersect(tracer.offset_origin(x.position[ok], x.geometric_normal[ok]), w[ok])
+        rows = np.nonzero(hits.hit)[0]
+        y = shade(scene, w[ok], hits, rows)
+        found_p.append(y.position)
+        found_n.append(y.shading_normal)
+    return np.concatenate(found_p), np.concatenate(found_n)
+
+
+def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> np.ndarray:
+    """(N,) A_j, the surface area of each light's share (``photon_lights``): ``per_light`` stratified points of
+    the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray from
+    ``DROP`` r_j above to as far below, each standing for pi r_j^2 / per_light of the disc divided by the cosine
+    between the surface and the disc; the sum of their shares s_j. Exact on flat surfaces; points past an edge
+    find no surface and add nothing. The short drop keeps other surfaces near the light (a shelf above a floor)
+    from hiding the light's own."""
+    out = np.zeros(len(lights))
+    if len(lights) == 0 or per_light <= 0:
+        return out
+    step = max(1, POINTS_PER_BATCH // per_light)
+    for lo in range(0, len(lights), step):
+        own = np.arange(lo, min(len(lights), lo + step))
+        u, v = stratified_2d(len(own), per_light, rng)
+        dx, dy = concentric_disk(u.ravel(), v.ravel())
+        j = np.repeat(own, per_light)
+        t, b = orthonormal_basis(lights.normal[j])
+        r, n = lights.radius[j], lights.normal[j]
+        start = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b + (DROP * r)[:, None] * n
+        hits = tracer.intersect(start, -n, tmax=2.0 * DROP * r)
+        rows = np.nonzero(hits.hit)[0]
+        y = shade(scene, -n, hits, rows)
+        slope = np.abs(dot(y.geometric_normal, n[rows]))
+        pair, light, share = lights.shares(y.position, y.shading_normal)
+        mine = np.bincount(pair, share * (light == j[rows][pair]), len(rows))
+        area = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)
+        out += np.bincount(j[rows], mine * area, len(lights))
+    return out
+
+
+def place(context, settings):
+    s = settings.vbnl
+    marks = {"start": time.perf_counter()}
+    position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
+    marks["candidates"] = time.perf_counter()
+    kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
+    lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
+    marks["elimination"] = time.perf_counter()
+    lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
+    intensity = np.zeros((len(lights), 3))
+    traced = 0
+    while traced < s.photons and len(lights):
+        count = min(PATHS_PER_BATCH, s.photons - traced)
+        photons = trace_paths(context.scene, context.tracer, context.lights, count, context.rng,
+                              context.max_bounces, first_path=traced)
+        intensity += lights.spread(photons.position, photons.normal, photons.intensity)
+        traced += count
+    lights.intensity = intensity / max(traced, 1)
+    marks["photon_splitting"] = time.perf_counter()
+    stages = list(marks)
+    seconds = {b: marks[b] - marks[a] for a, b in zip(stages, stages[1:])}
+    return lights, {"vpls": len(lights), "candidates": len(position), "light_paths": traced, "seconds": seconds,
+                    "covered_share": float((lights.intensity.sum(axis=1) > 0).mean()) if len(lights) else 0.0}
+
+
+def gather_samples(settings) -> int:
+    """Sample pairs per pixel the gather takes."""
+    return settings.vbnl.sampling.samples
+
+
+def gather(surface, lights, context, settings, rng):
+    return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
+                                         settings.vbnl.sampling, context.max_bounces)

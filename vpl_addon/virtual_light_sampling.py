@@ -1,0 +1,137 @@
+"""Rendering with virtual blue noise lighting (Li et al., HPG 2022, sec. 4): photon lights sampled, not summed.
+
+At a shading point x, one *BSDF sample* and one *power-based light sample* estimate the light from the photon
+lights, combined by multiple importance sampling with the power heuristic (eq. 5):
+
+- power-based (eq. 4): light j with probability P_j / sum P, then a direction uniform in the cone that holds its
+  sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j)); the ray's hit y adds s_j(y) L_j, zero outside the
+  sphere (``photon_lights``: s_j is the light's share of y, L_j its radiance);
+- BSDF: a cosine-weighted direction w_r (the diffuse lobe) traced to y_r; every light whose sphere holds y_r adds
+  s_i(y_r) L_i.
+
+*Adaptive camera path extension* (eq. 6-9): with the sample footprint a = |x - y|^2 / (p_BSDF(w) |cos theta_y|) and
+light density rho_i (eq. 8), each light's share is w_v = clamp((a rho_i - n_min) / (n_max - n_min), 0, 1); what the
+lights do not cover, (1 - w_v), is found by extending the camera path from y: direct light at y by next-event
+estimation, and y's own indirect light by the same estimator one level deeper. Points no light covers extend
+fully (w_v = 0). The last allowed bounce uses the lights alone.
+
+Per light the integrand w_v,i(w) s_i L_i cos / pi is one function of w for both strategies, so the MIS weights are
+exact; the extension term is estimated from the BSDF sample with w_v averaged over the covering lights by their
+radiance. The result is the light reflected by a white Lambertian surface (Cycles' ``Diffuse Indirect``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .direct import diffuse_direct
+from .sampling import cosine_hemisphere, dot, group_sum, sample_cdf, uniform_cone
+from .surface import shade
+
+
+@dataclass
+class SamplingSettings:
+    samples: int = 16  # sample pairs (BSDF + light) per pixel: the budget knob
+    extension: bool = True  # adaptive camera path extension (eq. 6-9)
+    n_min: float = 40.0
+    n_max: float = 80.0
+
+
+def _one_minus_cos_cone(radius, dist):
+    """1 - cos(theta) of the cone holding a sphere of ``radius`` at ``dist``, stable for tiny spheres; 2 (the whole
+    sphere of directions) from inside."""
+    s2 = np.minimum((radius / np.maximum(dist, 1e-300)) ** 2, 1.0)
+    return np.where(dist <= radius, 2.0, s2 / (1.0 + np.sqrt(1.0 - s2)))
+
+
+def _power_heuristic(a, b):
+    a2, b2 = a * a, b * b
+    return np.where(a2 > 0.0, a2 / np.maximum(a2 + b2, 1e-300), 0.0)
+
+
+def _share(footprint, density, settings, extend):
+    """w_v of eq. 9 (1 where the path may not extend)."""
+    if not extend:
+        return np.ones_like(footprint)
+    span = max(settings.n_max - settings.n_min, 1e-9)
+    return np.clip((footprint * density - settings.n_min) / span, 0.0, 1.0)
+
+
+def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, settings: SamplingSettings,
+           max_depth: int) -> np.ndarray:
+    """(K,3) indirect light at the points of ``surface`` from the ``PhotonLights``, one sample pair per point."""
+    out = np.zeros((len(surface), 3))
+    if len(surface) == 0 or len(lights) == 0 or max_depth <= 0:
+        return out
+    radiance = lights.radiance
+    power = np.maximum(lights.intensity.sum(axis=1), 0.0)
+    total_power = power.sum()
+    choice = power / total_power if total_power > 0 else np.zeros_like(power)
+    cdf = np.cumsum(choice)
+    density = lights.density
+    point, owner, throughput = surface, np.arange(len(surface)), np.ones((len(surface), 3))
+    for depth in range(max_depth):
+        if len(owner) == 0:
+            break
+        extend = settings.extension and depth + 1 < max_depth
+        p, ng, ns = point.position, point.geometric_normal, point.shading_normal
+        origin = tracer.offset_origin(p, ng)
+
+        # light sample (eq. 4), weighted against the BSDF pdf of the same direction
+        if total_power > 0:
+            j = sample_cdf(cdf, rng.random(len(p)))
+            to = lights.position[j] - p
+            dist = np.linalg.norm(to, axis=1)
+            axis = to / np.maximum(dist, 1e-300)[:, None]
+            cone = _one_minus_cos_cone(lights.radius[j], dist)
+            w = uniform_cone(rng.random(len(p)), rng.random(len(p)), axis, 1.0 - cone)
+            p_light = choice[j] / (2.0 * np.pi * cone)
+            cos_x = dot(ns, w)
+            ok = np.nonzero((cos_x > 0.0) & (dot(ng, w) > 0.0))[0]
+            hits = tracer.intersect(origin[ok], w[ok])
+            rows = np.nonzero(hits.hit)[0]
+            y = shade(scene, w[ok], hits, rows)
+            at = ok[rows]
+            jj = j[at]
+            to_y = y.position - p[at]
+            pair, light, share = lights.shares(y.position, y.shading_normal)
+            mine = group_sum(pair, (share * (light == jj[pair]))[:, None], len(at))[:, 0]  # s_j(y)
+            p_bsdf = cos_x[at] / np.pi
+            footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
+            weight = mine * _power_heuristic(p_light[at], p_bsdf) * _share(footprint, density[jj], settings,
+                                                                            extend) * p_bsdf / p_light[at]
+            out += group_sum(owner[at], throughput[at] * radiance[jj] * weight[:, None], len(out))
+
+        # BSDF sample: every light whose sphere holds the hit point
+        w, cos_r = cosine_hemisphere(rng.random(len(p)), rng.random(len(p)), ns)
+        ok = np.nonzero(dot(ng, w) > 0.0)[0]
+        hits = tracer.intersect(origin[ok], w[ok])
+        rows = np.nonzero(hits.hit)[0]
+        y = shade(scene, w[ok], hits, rows)
+        at = ok[rows]
+        pair, light, mine = lights.shares(y.position, y.shading_normal)
+        p_bsdf = cos_r[at] / np.pi
+        to_y = y.position - p[at]
+        footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
+        cone = _one_minus_cos_cone(lights.radius[light], np.linalg.norm(lights.position[light] - p[at][pair], axis=1))
+        p_light = choice[light] / (2.0 * np.pi * cone)
+        share = _share(footprint[pair], density[light], settings, extend)
+        light_radiance = radiance[light] * mine[:, None]
+        estimate = group_sum(pair, light_radiance * (_power_heuristic(p_bsdf[pair], p_light) * share)[:, None],
+                             len(at))
+        out += group_sum(owner[at], throughput[at] * estimate, len(out))
+        if not extend:
+            break
+
+        # camera path extension: what the lights leave, (1 - mean w_v), comes from the path continued at y
+        brightness = light_radiance.sum(axis=1)
+        covered = group_sum(pair, brightness[:, None], len(at))[:, 0]
+        mean_share = np.where(covered > 0.0, group_sum(pair, (share * brightness)[:, None], len(at))[:, 0] /
+                              np.maximum(covered, 1e-300), 0.0)
+        carry = throughput[at] * (1.0 - mean_share)[:, None] * y.albedo
+        go = np.nonzero(carry.max(axis=1) > 0.0)[0]
+        point = y.take(go)
+        owner, throughput = owner[at][go], carry[go]
+        out += group_sum(owner, throughput * diffuse_direct(point, light_set, tracer, 1, rng), len(out))
+    return out
