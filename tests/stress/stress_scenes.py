@@ -40,10 +40,20 @@ def tally(scene_name: str, result) -> int:
     return bad
 
 
+def placement(vpls: int) -> MethodSettings:
+    """A VPL budget, and for a method that traces a fixed number of photons (vbnl: 2^18, seconds per render) 256 per
+    light, so that every method's cost follows the budget."""
+    settings = MethodSettings(vpls=vpls)
+    for name in vars(settings):
+        if hasattr(getattr(settings, name), "photons"):
+            getattr(settings, name).photons = 256 * vpls
+    return settings
+
+
 def small_settings(method: str, **overrides) -> RenderSettings:
     """The stress suite's budget: few samples, few VPLs, every pass."""
     values = dict(samples=4, light_samples=2, method=method, indirect_samples=1,
-                  placement=MethodSettings(vpls=64), gather=GatherSettings(interleave=2), passes=ALL_PASSES)
+                  placement=placement(64), gather=GatherSettings(interleave=2), passes=ALL_PASSES)
     values.update(overrides)
     return RenderSettings(**values)
 
