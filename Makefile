@@ -49,8 +49,12 @@ examples: $(STAMP)
 	$(BIN)/python example_blends/make_examples.py
 	$(BIN)/python example_blends/make_corridor.py
 
+# Tracer throughput, then time against error of every method and Cycles on every example scene, with the scaling
+# runs (12.6 minutes measured on 2 cores before vbnl joined; about 16 with it); results in out/bench/ (bench.csv, <scene>.png, summary.txt, scaling.csv).
+BENCH_OUT ?= out/bench
 bench: $(STAMP)
 	$(BIN)/python bench/tracer_throughput.py
+	$(BIN)/python -m vpl_addon bench example_blends/*.blend --scaling --out $(BENCH_OUT) --overwrite
 
 clean:
 	rm -rf out dist build .pytest_cache

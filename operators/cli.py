@@ -88,6 +88,8 @@ def cmd_render(args) -> int:
         method += f" {info['vpls']} VPLs"
         if "kept_reverse_share" in info:
             method += f" ({info['kept_reverse_share'] * 100:.0f} % reverse)"
+        if "light_paths" in info:
+            method += f", {info['light_paths']} light paths"
     print(f"wrote {out}: {stats.get('width')}x{stats.get('height')}, {stats.get('samples')} spp, {method}, "
           f"{time.perf_counter() - t0:.2f} s ({stages}), {stats.get('rays', 0) / 1e6:.1f} M rays")
     return 0
@@ -136,6 +138,56 @@ def cmd_compare(args) -> int:
     return 0
 
 
+def cmd_bench(args) -> int:
+    from .bench import CYCLES, Bench, BenchError, Options, all_methods, parse_budgets
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else list(all_methods())
+    for m in methods:
+        if m not in all_methods():
+            raise UserError(f"--methods: unknown method {m!r}; choose from {', '.join(all_methods())}")
+    if not methods:
+        raise UserError("--methods: name at least one method")
+    for scene in args.scenes:
+        if not os.path.isfile(scene):
+            raise UserError(f"no such file: {scene}")
+    for flag in ("samples", "light_samples", "percentage", "gather_rays"):
+        value = getattr(args, flag)
+        if value is not None and value < (0 if flag == "light_samples" else 1):
+            raise UserError(f"--{flag.replace('_', '-')} must be at least {0 if flag == 'light_samples' else 1}")
+    if args.time_cap is not None and args.time_cap <= 0:
+        raise UserError("--time-cap must be positive")
+    try:
+        budgets = parse_budgets(args.budgets, methods)
+    except BenchError as err:
+        raise UserError(str(err)) from None
+    out_dir = os.path.abspath(args.out)
+    stems = [os.path.splitext(os.path.basename(s))[0] for s in args.scenes]
+    targets = ["bench.csv", "summary.txt", *(f"{s}.png" for s in stems)] + (["scaling.csv"] if args.scaling else [])
+    existing = [os.path.join(out_dir, t) for t in targets if os.path.exists(os.path.join(out_dir, t))]
+    if existing and not args.overwrite:
+        raise UserError(f"{existing[0]} exists; pass --overwrite to replace it (or choose another --out)")
+    os.makedirs(out_dir, exist_ok=True)
+    quick = args.quick
+    options = Options(scenes=[os.path.abspath(s) for s in args.scenes], methods=methods, budgets=budgets,
+                      out_dir=out_dir, percentage=args.percentage or (25 if quick else None),
+                      samples=args.samples or (2 if quick else 4),
+                      light_samples=args.light_samples if args.light_samples is not None else (2 if quick else 4),
+                      time_cap=args.time_cap if args.time_cap is not None else (10.0 if quick else 40.0),
+                      reference_samples=args.reference_samples, cache_dir=args.cache_dir,
+                      gather_rays=args.gather_rays or (200_000 if quick else 2_000_000), quick=quick,
+                      scaling=args.scaling)
+    if args.reference_dir:
+        options.reference_dir = os.path.abspath(args.reference_dir)
+    _ensure_registered()
+    try:
+        summary = Bench(options, _open_blend).run()
+    except BenchError as err:
+        raise UserError(str(err)) from None
+    with open(os.path.join(out_dir, "summary.txt"), "w") as f:
+        f.write("\n".join(summary) + "\n")
+    print("\n".join(summary))
+    return 0
+
+
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m vpl_addon",
                                 description="VPL GI: indirect light with virtual lights, judged against Cycles.")
@@ -177,6 +229,32 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--heatmap", help="PNG of the per-pixel relative error")
     c.add_argument("--passes", help="comma-separated pass names (default: all in common)")
     c.set_defaults(run=cmd_compare)
+    b = sub.add_parser("bench", help="time against error: every method and Cycles over their budgets, CSV + plots")
+    b.add_argument("scenes", nargs="+", metavar="SCENE.blend")
+    b.add_argument("--methods", help="comma-separated, from the engine's methods, cycles and cycles+oidn "
+                                     "(default: all)")
+    b.add_argument("--budgets", action="append", metavar="[METHOD=]N,N,...",
+                   help="budgets of one method (VPL count; samples per pixel for cycles), or of every engine "
+                        "method without METHOD=; repeatable")
+    b.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's; --quick: 25)")
+    b.add_argument("--samples", type=int, help="engine camera samples per pixel (default 4; --quick: 2)")
+    b.add_argument("--light-samples", type=int, help="engine light samples (default 4; --quick: 2)")
+    b.add_argument("--time-cap", type=float,
+                   help="skip a method's larger budgets once its next run would take longer than this many seconds "
+                        "(default 40; --quick: 10)")
+    b.add_argument("--scaling", action="store_true",
+                   help="also time the first scene against triangle, pixel and VPL count (scaling.csv)")
+    b.add_argument("--gather-rays", type=int, help="gather shadow rays replayed against raw embreex (default 2 M)")
+    b.add_argument("--quick", action="store_true", help="a smoke run of seconds: 25 %% resolution, two budgets")
+    b.add_argument("--out", default=os.path.join("out", "bench"), help="output folder (default out/bench)")
+    b.add_argument("--reference-dir", help="committed references to use when their hash is fresh "
+                                           "(default tests/references)")
+    b.add_argument("--reference-samples", type=int, default=4096,
+                   help="Cycles samples of a reference that must be rendered (default 4096)")
+    b.add_argument("--cache-dir", default=os.path.join(os.path.expanduser("~"), ".cache", "vpl_gi"),
+                   help="where rendered references are kept by hash")
+    b.add_argument("--overwrite", action="store_true", help="replace the output files if they exist")
+    b.set_defaults(run=cmd_bench)
     return p
 
 

@@ -62,6 +62,16 @@ def test_render_writes_cycles_named_passes_and_a_timing_line(small_blend, tmp_pa
     assert passes["Combined"][..., 3].min() == 1.0  # the floor fills the frame
 
 
+def test_vbnl_settings_reach_the_engine_from_the_command_line(tmp_path):
+    out = tmp_path / "vbnl.exr"
+    code, stdout, stderr = run_cli("render", EXAMPLES / "cornell_area.blend", "-o", out, "--percentage", "12",
+                                   "--samples", "2", "--light-samples", "1", "--method", "vbnl", "--vpls", "300",
+                                   "--photons", "5000", "--vbnl-samples", "3", "--elimination", "uniform",
+                                   "--no-path-extension")
+    assert code == 0, stderr
+    assert "vbnl 300 VPLs, 5000 light paths" in stdout
+
+
 def test_existing_output_is_not_overwritten_without_asking(small_blend, tmp_path):
     out = tmp_path / "keep.exr"
     out.write_bytes(b"precious")

@@ -38,7 +38,7 @@ class RenderSettings:
     light_samples: int = 8  # next-event samples per camera sample for direct light
     seed: int = 0
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
-    method: str = "bidir"  # how virtual lights are placed: ir, bidir, vbnl, or none (no indirect light)
+    method: str = "vbnl"  # how virtual lights are placed: vbnl, bidir, ir, or none (no indirect light)
     indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)

@@ -16,6 +16,9 @@ import numpy as np
 ULP_OFFSET = 16.0  # float32 steps along the normal; Waechter-Binder's 256 moves a point 2 m at 1e5 m from 0
 CHUNK = 1 << 16  # rays per embree call: large enough to amortise Python, small enough to share across threads
 FAR = 1e30
+# Benchmarks only: when set, called as OCCLUSION_RECORDER(origins, dirs, tmax) with every occlusion batch, so
+# bench/ can replay the engine's own shadow rays through raw embreex. None (always, in renders): no cost.
+OCCLUSION_RECORDER = None
 
 
 @dataclass
@@ -92,6 +95,8 @@ class Tracer:
         if self._scene is None or n == 0:
             return np.zeros(n, bool)
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,))
+        if OCCLUSION_RECORDER is not None:
+            OCCLUSION_RECORDER(origins, dirs, tmax)
         parts = self._run(origins, dirs, tmax, "OCCLUDED")
         return np.concatenate(parts) >= 0
 

@@ -11,8 +11,10 @@ from vpl_addon.camera import Camera, view_window
 from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import PointLight
 from vpl_addon.methods import MethodSettings
+from vpl_addon.methods.vbnl import VBNLSettings
 from vpl_addon.render import RenderSettings
 from vpl_addon.scene import Materials, Scene
+from vpl_addon.virtual_light_sampling import SamplingSettings
 
 # every method that exists, so a method that lands later is stressed without touching this suite
 METHODS = ("none", *vpl_addon.methods.METHODS)
@@ -40,20 +42,16 @@ def tally(scene_name: str, result) -> int:
     return bad
 
 
-def placement(vpls: int) -> MethodSettings:
-    """A VPL budget, and for a method that traces a fixed number of photons (vbnl: 2^18, seconds per render) 256 per
-    light, so that every method's cost follows the budget."""
-    settings = MethodSettings(vpls=vpls)
-    for name in vars(settings):
-        if hasattr(getattr(settings, name), "photons"):
-            getattr(settings, name).photons = 256 * vpls
-    return settings
+def budget(vpls: int) -> MethodSettings:
+    """A light budget with vbnl's photons and gather samples cut to the stress suite's scale."""
+    return MethodSettings(vpls=vpls, vbnl=VBNLSettings(photons=4096, sampling=SamplingSettings(samples=2)))
 
 
 def small_settings(method: str, **overrides) -> RenderSettings:
     """The stress suite's budget: few samples, few VPLs, every pass."""
     values = dict(samples=4, light_samples=2, method=method, indirect_samples=1,
-                  placement=placement(64), gather=GatherSettings(interleave=2), passes=ALL_PASSES)
+                  placement=budget(64),
+                  gather=GatherSettings(interleave=2), passes=ALL_PASSES)
     values.update(overrides)
     return RenderSettings(**values)
 

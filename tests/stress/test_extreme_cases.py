@@ -3,7 +3,7 @@ value, a VPL exactly on a shading point, an object moving through a VPL between 
 import numpy as np
 import pytest
 
-from stress_scenes import METHODS, WHITE, box, placement, room, small_settings, tally
+from stress_scenes import budget, METHODS, WHITE, box, room, small_settings, tally
 from vpl_addon.gather import GatherSettings, gather
 from vpl_addon.gbuffer import GBuffer
 from vpl_addon.lights import LightSet
@@ -23,7 +23,7 @@ def test_furnace_indirect_light_stays_at_the_analytic_value(method, albedo, boun
     created) nor fall far below it (nor lose the light)."""
     glowing = Materials.make([{"name": "glowing", "base_color": (albedo,) * 3, "emission": (1.0, 1.0, 1.0)}])
     scene = room(lights=[], materials=glowing, max_bounces=bounces)
-    result = render(scene, small_settings(method, placement=placement(256)))
+    result = render(scene, small_settings(method, placement=budget(256)))
     assert tally(f"furnace, albedo {albedo}, {bounces} bounces", result) == 0
     analytic = sum(albedo ** k for k in range(1, bounces + 1))
     assert 0.85 * analytic <= result.passes["Diffuse Indirect"].mean() <= 1.1 * analytic
@@ -66,7 +66,7 @@ def test_object_moving_through_a_vpl_between_frames(method):
     tracer = Tracer(scene.triangles)
     try:
         context = MethodContext(scene, tracer, LightSet(scene), np.random.default_rng([0, 1 << 20]), 8)
-        vpls, _ = place(method, context, placement(64))
+        vpls, _ = place(method, context, budget(64))
     finally:
         tracer.close()
     visible_floor = vpls.position[(vpls.position[:, 2] < 1e-3) & (vpls.position[:, 1] > 0)]
@@ -79,7 +79,7 @@ def test_object_moving_through_a_vpl_between_frames(method):
                             material=np.ones(len(scene.triangles) + 12, int))
         if step == 0.0:
             assert ((center - 0.15 <= target) & (target <= center + 0.15)).all()
-        result = render(moved, small_settings(method, placement=placement(64)))
+        result = render(moved, small_settings(method, placement=budget(64)))
         assert tally(f"object through a VPL, frame {int(step) + 2}", result) == 0
         frames.append(result.passes["Combined"])
     assert not np.array_equal(frames[0], frames[2])
@@ -104,7 +104,7 @@ def test_two_million_triangles():
     plain = render(base, small_settings("none", samples=16, light_samples=4)).passes["Diffuse Direct"]
     for method in METHODS:
         result = render(scene, small_settings(method, samples=16, light_samples=4,
-                                              placement=placement(16)))
+                                              placement=budget(16)))
         assert tally("two million triangles", result) == 0
         direct = result.passes["Diffuse Direct"]
         assert abs(direct.mean() / plain.mean() - 1.0) < 0.1

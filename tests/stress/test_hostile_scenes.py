@@ -4,12 +4,11 @@ end of the run (tests/conftest.py)."""
 import numpy as np
 import pytest
 
-from stress_scenes import (ALBEDO_ONE, BLACK, METHODS, WHITE, box, look_at, placement, room, small_settings, tally,
+from stress_scenes import (budget, ALBEDO_ONE, BLACK, METHODS, WHITE, box, look_at, room, small_settings, tally,
                            with_triangles)
 from vpl_addon.camera import Camera, view_window
 from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
-from vpl_addon.methods import MethodSettings
 from vpl_addon.scene import Materials, Scene
 from vpl_addon.render import render
 
@@ -146,7 +145,7 @@ def cases():
     yield "fisheye-wide lens (1 mm)", room(camera=camera(lens=1.0)), {}
     yield "orthographic, 1e-6 m view", room(camera=camera(orthographic=True, ortho_scale=1e-6)), {}
     # settings
-    yield "one VPL, interleave tile larger than the image", base, dict(placement=placement(1),
+    yield "one VPL, interleave tile larger than the image", base, dict(placement=budget(1),
                                                                         gather=GatherSettings(interleave=32))
     yield "no clamping of the geometry term", room(lights=[PointLight("corner", [0.99, 0.99, 0.01], [100.0] * 3)]), \
         dict(gather=GatherSettings(clamp=0.0, interleave=1))
@@ -179,7 +178,7 @@ def test_albedo_one_room_stays_below_its_energy_bound(method):
     again, so the mean indirect irradiance over the walls is B P / A; the pass (E / pi) seen by the camera stays
     below a generous multiple of that (the camera sees the walls unevenly)."""
     scene = room(materials=ALBEDO_ONE, max_bounces=3)
-    result = render(scene, small_settings(method, placement=placement(512)))
+    result = render(scene, small_settings(method, placement=budget(512)))
     bound = scene.max_bounces * 100.0 / scene.surface_area / np.pi
     assert 0.0 < result.passes["Diffuse Indirect"].mean() <= 3.0 * bound
 
@@ -193,7 +192,7 @@ def test_scale_and_position_do_not_change_the_image(method, variant):
     from vpl_addon.metrics import errors
 
     def image(scene, seed):
-        settings = small_settings(method, seed=seed, placement=placement(256), gather=GatherSettings())
+        settings = small_settings(method, seed=seed, placement=budget(256), gather=GatherSettings())
         return render(scene, settings).passes["Diffuse Indirect"]
 
     base = image(room(), 0)
@@ -205,7 +204,7 @@ def test_scale_and_position_do_not_change_the_image(method, variant):
 @pytest.mark.parametrize("make, words", [
     (lambda: small_settings("ir", samples=0), "samples"),
     (lambda: small_settings("ir", light_samples=-1), "light samples"),
-    (lambda: small_settings("ir", placement=MethodSettings(vpls=0)), "VPL budget"),
+    (lambda: small_settings("ir", placement=budget(0)), "VPL budget"),
     (lambda: small_settings("ir", gather=GatherSettings(clamp=float("nan"))), "clamp"),
     (lambda: small_settings("ir", gather=GatherSettings(clamp=-1.0)), "clamp"),
     (lambda: small_settings("no such method"), "unknown method"),

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
-from stress_scenes import METHODS, box, look_at, placement, room, small_settings, tally
+from stress_scenes import budget, METHODS, box, look_at, room, small_settings, tally
 from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import PointLight
 from vpl_addon.metrics import errors
@@ -26,7 +26,7 @@ light_position = st.tuples(st.floats(-0.8, 0.8), st.floats(-0.8, 0.8), st.floats
 
 
 def indirect(scene, method, seed=0, vpls=256, **overrides):
-    values = dict(seed=seed, placement=placement(vpls), gather=GatherSettings())
+    values = dict(seed=seed, placement=budget(vpls), gather=GatherSettings())
     result = render(scene, small_settings(method, **{**values, **overrides}))
     return result.passes["Diffuse Indirect"]
 
@@ -85,7 +85,7 @@ def test_energy_never_above_the_furnace_bound(method, albedo, bounces, size):
     scene = Scene.build(box([-1, -1, 0], [1, 1, 2]) * stretch, glowing, [],
                         look_at(np.array([0.5, -0.9, 1.0]) * stretch, np.array([0, 0.5, 0.6]) * stretch),
                         material=np.ones(12, int), max_bounces=bounces)
-    result = render(scene, small_settings(method, placement=placement(256)))
+    result = render(scene, small_settings(method, placement=budget(256)))
     assert tally("furnace of random proportions", result) == 0
     bound = sum(albedo ** k for k in range(1, bounces + 1))
     assert result.passes["Diffuse Indirect"].mean() <= 1.1 * bound + 1e-6

@@ -49,24 +49,29 @@ class VBNLSettings:
             raise ValueError("vbnl needs candidates >= 1, photons >= 0 and samples >= 1")
 
 
-def candidates(scene, tracer, count: int, rng: np.random.Generator):
-    """(positions, normals) of about ``count`` points seen from camera-path ends (sec. 3.1), equal samples per
-    pixel; normals face the point that found them."""
+def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int = 8):
+    """(positions, normals) of ``count`` points seen from camera-path ends (sec. 3.1), the same number of camera
+    samples in every pixel; normals face the point that found them. Rays that find nothing (an open scene) are
+    made up by further passes over the image, at most ``passes`` in all."""
     cam = scene.camera
     pixels = cam.width * cam.height
-    spp = max(1, math.ceil(count / pixels))
-    found_p, found_n = [], []
-    for lo in range(0, pixels, max(1, PIXELS_PER_BATCH // spp)):
-        block = np.arange(lo, min(pixels, lo + max(1, PIXELS_PER_BATCH // spp)))
-        x = GBuffer.build(scene, tracer, block, spp, rng).surface
-        w, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
-        ok = np.nonzero(dot(w, x.geometric_normal) > 0.0)[0]
-        hits = tracer.intersect(tracer.offset_origin(x.position[ok], x.geometric_normal[ok]), w[ok])
-        rows = np.nonzero(hits.hit)[0]
-        y = shade(scene, w[ok], hits, rows)
-        found_p.append(y.position)
-        found_n.append(y.shading_normal)
-    return np.concatenate(found_p), np.concatenate(found_n)
+    found_p, found_n, found = [], [], 0
+    for _ in range(passes):
+        spp = max(1, math.ceil((count - found) / pixels))
+        step = max(1, PIXELS_PER_BATCH // spp)
+        for lo in range(0, pixels, step):
+            x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
+            w, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
+            ok = np.nonzero(dot(w, x.geometric_normal) > 0.0)[0]
+            hits = tracer.intersect(tracer.offset_origin(x.position[ok], x.geometric_normal[ok]), w[ok])
+            rows = np.nonzero(hits.hit)[0]
+            y = shade(scene, w[ok], hits, rows)
+            found_p.append(y.position)
+            found_n.append(y.shading_normal)
+            found += len(rows)
+        if found >= count or found == 0:
+            break
+    return np.concatenate(found_p)[:count], np.concatenate(found_n)[:count]
 
 
 def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> np.ndarray:
@@ -87,8 +92,9 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
         j = np.repeat(own, per_light)
         t, b = orthonormal_basis(lights.normal[j])
         r, n = lights.radius[j], lights.normal[j]
-        start = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b + (DROP * r)[:, None] * n
-        hits = tracer.intersect(start, -n, tmax=2.0 * DROP * r)
+        on_plane = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b
+        start = tracer.offset_origin(on_plane + (DROP * r)[:, None] * n, n)  # above float32 noise far away
+        hits = tracer.intersect(start, -n, tmax=dot(start - on_plane, n) + DROP * r)
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))

@@ -1,0 +1,79 @@
+"""Time of the two heavy stages of Virtual Blue Noise Lighting's placement (Li et al. 2022, sec. 3.2-3.3).
+
+1. Adaptive sample elimination of 1,000,000 camera candidates (sec. 3.1, found in the scene) to 100,000 lights
+   (that it spaces them like the sequential greedy is a test, tests/test_vbnl.py; here only the time).
+2. Photon splitting of 10,000,000 photons (light-path vertices) among those 100,000 lights: light paths traced
+   in batches and never stored, each vertex's intensity shared among the lights covering it.
+
+    .venv/bin/python bench/vbnl_stages.py [SCENE.blend] [--candidates N] [--lights N] [--photons N]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+
+def load_scene(path):
+    """The engine's Scene of a .blend, extracted through bpy (the extension loaded as ``vpl_gi``)."""
+    from vpl_addon.__main__ import extension_package
+    extension_package()
+    import bpy
+    from vpl_gi.operators.extract import extract
+    bpy.ops.wm.open_mainfile(filepath=str(path))
+    scene, _ = extract(bpy.context.evaluated_depsgraph_get())
+    return scene
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scene", nargs="?", default=str(ROOT / "example_blends" / "cornell_area.blend"))
+    ap.add_argument("--candidates", type=int, default=1_000_000)
+    ap.add_argument("--lights", type=int, default=100_000)
+    ap.add_argument("--photons", type=int, default=10_000_000)
+    args = ap.parse_args()
+    scene = load_scene(args.scene)
+    from vpl_gi.vpl_addon.light_paths import trace_paths
+    from vpl_gi.vpl_addon.lights import LightSet
+    from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates
+    from vpl_gi.vpl_addon.photon_lights import ALPHA, PhotonLights
+    from vpl_gi.vpl_addon.sample_elimination import eliminate
+    from vpl_gi.vpl_addon.tracer import Tracer
+
+    rng = np.random.default_rng(0)
+    tracer = Tracer(scene.triangles)
+    lights_in_scene = LightSet(scene)
+    print(f"{os.path.basename(args.scene)}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}")
+    t = time.perf_counter()
+    position, normal = candidates(scene, tracer, args.candidates, rng)
+    print(f"candidates from the camera: {len(position):,} in {time.perf_counter() - t:.2f} s")
+    t = time.perf_counter()
+    kept = eliminate(position, args.lights, rng)
+    print(f"adaptive sample elimination {len(position):,} -> {len(kept.keep):,}: {time.perf_counter() - t:.2f} s")
+    lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
+    split = paths = 0
+    trace_seconds = split_seconds = 0.0
+    while split < args.photons:
+        t = time.perf_counter()
+        photons = trace_paths(scene, tracer, lights_in_scene, PATHS_PER_BATCH, rng, scene.max_bounces,
+                              first_path=paths)
+        t2 = time.perf_counter()
+        lights.spread(photons.position, photons.normal, photons.intensity)
+        split_seconds += time.perf_counter() - t2
+        trace_seconds += t2 - t
+        split += len(photons)
+        paths += PATHS_PER_BATCH
+    print(f"photon splitting of {split:,} photons ({paths:,} light paths) among {len(lights):,} lights: "
+          f"{trace_seconds + split_seconds:.2f} s (tracing {trace_seconds:.2f} s, splitting {split_seconds:.2f} s)")
+    tracer.close()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,126 @@
+"""The benchmark: its arithmetic on synthetic curves (exact values), midpoint subdivision, and one tiny run of
+``python -m vpl_addon bench`` with the real bpy, Cycles and embree (columns, files, finite numbers; no timings)."""
+import csv
+import math
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES, plane_scene, run_cli
+from test_cli import assert_one_line_error
+from vpl_addon.convergence import Curve, equal_error, equal_time, error_at, fit_exponent, time_to_error
+from vpl_addon.subdivision import levels_for, subdivide
+
+# Cycles-like: error halves when time quadruples (error ~ t^-1/2)
+CYCLES = Curve.of([1.0, 4.0, 16.0, 64.0], [0.4, 0.2, 0.1, 0.05], [1, 4, 16, 64])
+SLOW_START = Curve.of([1.0, 100.0], [0.1, 0.01], [64, 6400])  # error ~ t^-1/2
+FAST_FINISH = Curve.of([1.0, 100.0], [0.4, 0.004], [64, 6400])  # error ~ t^-1
+
+
+def test_error_at_interpolates_log_log_and_refuses_to_extrapolate():
+    assert error_at(CYCLES, 2.0).value == pytest.approx(0.4 / math.sqrt(2), rel=1e-12)
+    assert error_at(CYCLES, 8.0).value == pytest.approx(0.2 / math.sqrt(2), rel=1e-12)
+    assert error_at(CYCLES, 16.0).value == pytest.approx(0.1, rel=1e-12)
+    low, high = error_at(CYCLES, 0.5), error_at(CYCLES, 65.0)
+    assert low.value is None and "fastest run took 1.00 s" in low.note
+    assert high.value is None and "slowest run took 64.00 s" in high.note
+
+
+def test_curves_are_ordered_by_budget():
+    c = Curve.of([4.0, 1.0], [0.2, 0.4], [16, 4])
+    assert list(c.budget) == [4, 16] and list(c.seconds) == [1.0, 4.0] and list(c.error) == [0.4, 0.2]
+
+
+def test_time_to_error_interpolates_bounds_and_extrapolates_with_a_label():
+    inside = time_to_error(CYCLES, 0.25)
+    assert inside.value == pytest.approx((0.4 / 0.25) ** 2, rel=1e-12) and inside.note == ""
+    beyond = time_to_error(CYCLES, 0.025)
+    assert beyond.value == pytest.approx(64.0 * 4.0, rel=1e-12) and "extrapolated" in beyond.note
+    already = time_to_error(CYCLES, 0.5)
+    assert already.value == 1.0 and "at most" in already.note
+    assert time_to_error(CYCLES, 0.025, extrapolate=False).value is None
+
+
+def test_equal_time_picks_the_best_method_at_each_time():
+    ours = {"slow_start": SLOW_START, "fast_finish": FAST_FINISH}
+    early = equal_time(ours, CYCLES, 4.0)  # slow_start 0.05, fast_finish 0.1, Cycles 0.2
+    assert early.best == "slow_start" and early.ratio == pytest.approx(4.0, rel=1e-12)
+    late = equal_time(ours, CYCLES, 64.0)  # slow_start 0.0125, fast_finish 0.00625, Cycles 0.05
+    assert late.best == "fast_finish" and late.ratio == pytest.approx(8.0, rel=1e-12)
+    outside = equal_time(ours, CYCLES, 200.0)
+    assert outside.best is None and outside.ratio is None
+
+
+def test_equal_error_speedup():
+    ee = equal_error({"fast_finish": FAST_FINISH}, CYCLES, 64.0)
+    # target 0.4 / 64; Cycles ends at 0.05 after 64 s -> 64 * (0.05 / 0.00625)^2 s, extrapolated
+    assert ee.target.value == pytest.approx(0.4 / 64, rel=1e-12)
+    assert ee.cycles_time.value == pytest.approx(64.0 * 64.0, rel=1e-12) and "extrapolated" in ee.cycles_time.note
+    assert ee.speedup == pytest.approx(64.0, rel=1e-12)
+    measured = equal_error({"slow_start": SLOW_START}, CYCLES, 4.0)  # target 0.05: Cycles at 64 s
+    assert measured.speedup == pytest.approx(16.0, rel=1e-12) and measured.cycles_time.note == ""
+
+
+def test_fit_exponent():
+    x = np.array([1e4, 4e4, 1.6e5, 6.4e5])
+    assert fit_exponent(x, 3.0 * x ** 0.25) == pytest.approx(0.25, abs=1e-12)
+    assert fit_exponent(x, 2.0 * x) == pytest.approx(1.0, abs=1e-12)
+
+
+def test_subdivision_quadruples_triangles_and_keeps_the_surface():
+    scene = plane_scene()
+    finer = subdivide(scene, 2)
+    assert len(finer.triangles) == 16 * len(scene.triangles)
+    assert finer.surface_area == pytest.approx(scene.surface_area, rel=1e-6)
+    assert np.allclose(finer.bounds[0], scene.bounds[0]) and np.allclose(finer.bounds[1], scene.bounds[1])
+    assert np.allclose(np.linalg.norm(finer.normals, axis=2), 1.0, atol=1e-6)
+    assert np.allclose(finer.geometric_normals, [0, 0, 1])
+    assert len(finer.material) == len(finer.uvs) == len(finer.triangles)
+    assert levels_for(34) == [4, 5, 6, 7]
+
+
+@pytest.mark.blender
+def test_bench_cli_tiny_run(ext, tmp_path):
+    out = tmp_path / "bench"
+    code, stdout, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--scaling",
+                                   "--methods", "ir,bidir,cycles,cycles+oidn", "--out", out)
+    assert code == 0, stderr
+    from vpl_gi.operators.bench import COLUMNS
+    with open(out / "bench.csv", newline="") as f:
+        reader = csv.DictReader(f)
+        assert tuple(reader.fieldnames) == COLUMNS
+        rows = list(reader)
+    assert {(r["method"], r["pass"]) for r in rows} == {
+        (m, p) for m in ("ir", "bidir", "cycles") for p in ("Diffuse Indirect", "Combined")} | {
+        ("cycles+oidn", "Combined")}
+    assert {int(r["budget"]) for r in rows if r["method"] == "ir"} == {64, 256}
+    assert {int(r["budget"]) for r in rows if r["method"] == "cycles"} == {1, 4}
+    for r in rows:
+        for column in ("wall_s", "rmae", "relmse", "rmse_reinhard", "mean_ratio", "peak_rss_mb"):
+            assert math.isfinite(float(r[column])), (column, r)
+        assert r["width"] == r["height"] == "64"  # --quick: 25 % of 256, the committed 25 % reference
+        if r["method"] in ("ir", "bidir"):
+            assert int(r["rays"]) > 0 and math.isfinite(float(r["gather_s"]))
+    # more VPLs and more samples: lower error on this easy scene
+    err = {(r["method"], int(r["budget"])): float(r["rmae"]) for r in rows if r["pass"] == "Diffuse Indirect"}
+    assert err["ir", 256] < err["ir", 64] and err["cycles", 4] < err["cycles", 1]
+    assert (out / "cornell_area.png").stat().st_size > 5000
+    summary = (out / "summary.txt").read_text()
+    assert "equal time 2 s" in summary and "equal error" in summary and "against cycles+oidn" in summary
+    assert "gather shadow rays" in summary and "% of raw" in summary and "disagree" not in summary
+    with open(out / "scaling.csv", newline="") as f:
+        scaling = list(csv.DictReader(f))
+    assert {r["sweep"] for r in scaling} == {"triangles", "pixels", "vpls"}
+    assert [int(r["count"]) for r in scaling if r["sweep"] == "triangles"] == [34 * 4 ** 4, 34 * 4 ** 5]
+    assert summary.count("fitted exponent") == 3
+    # a second run never replaces the results without --overwrite
+    before = (out / "bench.csv").read_bytes()
+    code, _, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--out", out)
+    assert_one_line_error(code, stderr, "--overwrite")
+    assert (out / "bench.csv").read_bytes() == before
+
+
+@pytest.mark.blender
+def test_bench_rejects_an_unknown_method(tmp_path):
+    code, _, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--methods", "ir,photons", "--out", tmp_path)
+    assert_one_line_error(code, stderr, "photons")
