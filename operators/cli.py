@@ -101,9 +101,9 @@ def _check_range(settings, flag, value):
     if not hasattr(prop, "hard_min"):
         return
     if not (math.isfinite(value) and prop.hard_min <= value <= prop.hard_max):
-        high = f" and {prop.hard_max:g}" if prop.hard_max < 1e9 else ""
-        raise UserError(f"--{flag.replace('_', '-')} {value:g}: must be a number {'between' if high else 'of at least'} "
-                        f"{prop.hard_min:g}{high}")
+        bounds = f"between {prop.hard_min:g} and {prop.hard_max:g}" if prop.hard_max < 1e9 else \
+            f"of at least {prop.hard_min:g}"
+        raise UserError(f"--{flag.replace('_', '-')} {value:g}: must be a number {bounds}")
 
 
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",
