@@ -37,6 +37,7 @@ class PhotonLights:
     radius: np.ndarray  # (N,) r_j = alpha r_max,j
     intensity: np.ndarray  # (N,3) radiant intensity along the normal, from photon splitting
     catchment: np.ndarray | None = None  # (N,) A_j, the surface area of the light's share; None: pi r_j^2
+    by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
     neighbours: int = 8  # nearest centres examined by ``shares`` (about 3.6 cover a point at alpha = 2)
     tree: cKDTree | None = field(default=None, repr=False)
 
@@ -55,9 +56,20 @@ class PhotonLights:
 
     @property
     def radiance(self) -> np.ndarray:
-        """(N,3) L_j = I_j / A_j: the radiance a diffuse light stands for."""
+        """(N,3) L_j = I_j / A_j: the radiance a diffuse light stands for (light of every bounce)."""
+        return self.radiance_upto(None)
+
+    def intensity_upto(self, bounces: int | None) -> np.ndarray:
+        """(N,3) the intensity of the photons of at most ``bounces`` bounces (all if None or if the bounces were
+        not kept apart)."""
+        if bounces is None or self.by_bounce is None or self.by_bounce.shape[1] == 0:
+            return self.intensity
+        return self.by_bounce[:, min(max(bounces, 1), self.by_bounce.shape[1]) - 1]
+
+    def radiance_upto(self, bounces: int | None) -> np.ndarray:
+        """(N,3) L_j = I_j / A_j of the light of at most ``bounces`` bounces."""
         area = np.pi * self.radius * self.radius if self.catchment is None else self.catchment
-        return np.where(area[:, None] > 0.0, self.intensity / np.maximum(area, 1e-300)[:, None], 0.0)
+        return np.where(area[:, None] > 0.0, self.intensity_upto(bounces) / np.maximum(area, 1e-300)[:, None], 0.0)
 
     def shares(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pairs (point row, light, s_j(point)): the lights whose sphere holds the point, facing its side, with
@@ -75,12 +87,15 @@ class PhotonLights:
         w = np.maximum(1.0 - (dist[rows, cols] / self.radius[light]) ** 2, 1e-12)  # the rim still counts
         return rows, light, w / np.bincount(rows, w, len(points))[rows]
 
-    def spread(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray) -> np.ndarray:
-        """(N, C): per-point values (P, C) shared among the covering lights; a point no light covers adds
-        nothing. Photon splitting (sec. 3.3) with values = the photons' reflected intensities."""
+    def spread(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None,
+               groups: int = 1) -> np.ndarray:
+        """(N, groups, C): per-point values (P, C) shared among the covering lights, kept apart by ``group`` (P,)
+        in [0, groups); a point no light covers adds nothing. Photon splitting (sec. 3.3) with values = the
+        photons' reflected intensities, grouped by bounce."""
         rows, light, share = self.shares(points, normals)
         values = np.asarray(values, np.float64)
-        out = np.zeros((len(self), values.shape[1]))
+        slot = light * groups + (0 if group is None else np.asarray(group)[rows])
+        out = np.zeros((len(self) * groups, values.shape[1]))
         for c in range(values.shape[1]):
-            out[:, c] = np.bincount(light, share * values[rows, c], len(self))
-        return out
+            out[:, c] = np.bincount(slot, share * values[rows, c], len(self) * groups)
+        return out.reshape(len(self), groups, values.shape[1])

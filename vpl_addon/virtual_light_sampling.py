@@ -64,16 +64,17 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
     out = np.zeros((len(surface), 3))
     if len(surface) == 0 or len(lights) == 0 or max_depth <= 0:
         return out
-    radiance = lights.radiance
-    power = np.maximum(lights.intensity.sum(axis=1), 0.0)
-    total_power = power.sum()
-    choice = power / total_power if total_power > 0 else np.zeros_like(power)
-    cdf = np.cumsum(choice)
     density = lights.density
     point, owner, throughput = surface, np.arange(len(surface)), np.ones((len(surface), 3))
     for depth in range(max_depth):
         if len(owner) == 0:
             break
+        # a path with depth extra vertices may take light of at most max_depth - depth bounces from the lights
+        radiance = lights.radiance_upto(max_depth - depth)
+        power = np.maximum(lights.intensity_upto(max_depth - depth).sum(axis=1), 0.0)
+        total_power = power.sum()
+        choice = power / total_power if total_power > 0 else np.zeros_like(power)
+        cdf = np.cumsum(choice)
         extend = settings.extension and depth + 1 < max_depth
         p, ng, ns = point.position, point.geometric_normal, point.shading_normal
         origin = tracer.offset_origin(p, ng)

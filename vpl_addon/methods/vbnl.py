@@ -7,7 +7,9 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    the extension of the camera path on highly specular surfaces, Fig. 6b, comes with glossy materials.)
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
 3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
-   never stored, share the intensity of every vertex among the lights covering it.
+   never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
+   an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
+   limit holds for the whole path).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
 """
 from __future__ import annotations
@@ -114,15 +116,18 @@ def place(context, settings):
     lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
     marks["elimination"] = time.perf_counter()
     lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
-    intensity = np.zeros((len(lights), 3))
+    bounces = max(context.max_bounces, 1)
+    by_bounce = np.zeros((len(lights), bounces, 3))
     traced = 0
     while traced < s.photons and len(lights):
         count = min(PATHS_PER_BATCH, s.photons - traced)
         photons = trace_paths(context.scene, context.tracer, context.lights, count, context.rng,
                               context.max_bounces, first_path=traced)
-        intensity += lights.spread(photons.position, photons.normal, photons.intensity)
+        by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
+                                   bounces)
         traced += count
-    lights.intensity = intensity / max(traced, 1)
+    lights.by_bounce = np.cumsum(by_bounce, axis=1) / max(traced, 1)
+    lights.intensity = lights.by_bounce[:, -1]
     marks["photon_splitting"] = time.perf_counter()
     stages = list(marks)
     seconds = {b: marks[b] - marks[a] for a, b in zip(stages, stages[1:])}
