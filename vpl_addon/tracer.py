@@ -1,7 +1,9 @@
 """The one ray tracer: embree's BVH queried in large batches, split over all cores.
 
-``embreex`` releases the GIL inside ``run``, so chunks of a batch run concurrently on a thread pool. Origins are
-pushed off the surface they leave by ``offset_origin`` (Waechter and Binder, "A Fast and Robust Method for Avoiding
+``embreex`` releases the GIL inside ``run``, so chunks of a batch run concurrently on a thread pool. Embree works
+in float32 on coordinates relative to the centre of the scene's bounding box (callers keep world coordinates in
+float64): a room 100 km from the origin is traced as precisely as one at the origin. Origins are pushed off the
+surface they leave by ``offset_origin`` (Waechter and Binder, "A Fast and Robust Method for Avoiding
 Self-Intersection", Ray Tracing Gems ch. 6): a few float ULPs along the geometric normal, with the absolute fallback
 near zero scaled to the scene's extent so tiny and huge scenes behave alike.
 """
@@ -37,7 +39,9 @@ class Tracer:
     """Closest-hit and occlusion queries against the scene's triangles."""
 
     def __init__(self, triangles: np.ndarray, threads: int | None = None):
-        tri = np.ascontiguousarray(triangles, dtype=np.float32).reshape(-1, 3, 3)
+        tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
+        self.center = 0.5 * (tri.min(axis=(0, 1)) + tri.max(axis=(0, 1))) if len(tri) else np.zeros(3)
+        tri = np.ascontiguousarray(tri - self.center, dtype=np.float32)
         self.triangle_count = len(tri)
         self.threads = max(1, threads or os.cpu_count() or 1)
         self.rays_traced = 0
@@ -59,7 +63,7 @@ class Tracer:
     def _run(self, origins, dirs, tfar, query):
         n = len(origins)
         self.rays_traced += n
-        o = np.ascontiguousarray(origins, dtype=np.float32)
+        o = np.ascontiguousarray(np.asarray(origins, np.float64) - self.center, dtype=np.float32)
         d = np.ascontiguousarray(dirs, dtype=np.float32)
         tf = np.ascontiguousarray(np.minimum(tfar, FAR), dtype=np.float32)
         output = 1 if query == "INTERSECT" else None
@@ -101,14 +105,17 @@ class Tracer:
         return np.concatenate(parts) >= 0
 
     def offset_origin(self, p: np.ndarray, n: np.ndarray) -> np.ndarray:
-        """Move points p off their surface along the (geometric) normal n, toward the side n points to."""
-        p = np.asarray(p, np.float32)
+        """Move points p off their surface along the (geometric) normal n, toward the side n points to: by
+        ULP_OFFSET float32 steps of the point's (centred) coordinates, and at least extent / 65536 (near the
+        centre a few steps of a tiny coordinate are less than embree's error on the triangle's larger ones)."""
+        local = np.asarray(p, np.float64) - self.center
+        p32 = local.astype(np.float32)
         n = np.asarray(n, np.float32)
         of_i = (ULP_OFFSET * n).astype(np.int32)
-        p_i = p.view(np.int32) + np.where(p < 0.0, -of_i, of_i)
-        p_ulp = p_i.view(np.float32)
-        near_zero = np.abs(p) < self.extent / 32.0
-        return np.where(near_zero, p + (self.extent / 65536.0) * n, p_ulp).astype(np.float64)
+        p_i = p32.view(np.int32) + np.where(p32 < 0.0, -of_i, of_i)
+        by_ulps = p_i.view(np.float32).astype(np.float64) - p32
+        absolute = (self.extent / 65536.0) * n.astype(np.float64)
+        return local + np.where(np.abs(by_ulps) > np.abs(absolute), by_ulps, absolute) + self.center
 
     def visible(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
                 target_normal: np.ndarray | None = None) -> np.ndarray:
