@@ -12,21 +12,11 @@ from __future__ import annotations
 import argparse
 import pathlib
 import sys
-import time
 
 import numpy as np
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
-
-
-def best_of(fn, repeat=3):
-    times = []
-    for _ in range(repeat):
-        t = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t)
-    return min(times)
 
 
 def main():
@@ -40,6 +30,7 @@ def main():
     import bpy
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
+    from vpl_gi.operators.bench import best_of
     from vpl_gi.operators.extract import extract
     from vpl_gi.vpl_addon.tracer import Tracer
 

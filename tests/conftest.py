@@ -26,6 +26,38 @@ def ext():
     return package
 
 
+@pytest.fixture
+def small_blend(ext, tmp_path):
+    """Save a tiny scene (a floor, optional camera/light/degenerate mesh) to a .blend and return a factory."""
+    import bpy
+
+    def make(camera=True, light=True, degenerate=False, name="s.blend"):
+        bpy.ops.wm.read_factory_settings(use_empty=True)
+        scene = bpy.context.scene
+        scene.render.resolution_x = scene.render.resolution_y = 24
+        mesh = bpy.data.meshes.new("Floor")
+        mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
+        scene.collection.objects.link(bpy.data.objects.new("Floor", mesh))
+        if degenerate:
+            bad = bpy.data.meshes.new("Sliver")
+            bad.from_pydata([(0, 0, 1), (1, 0, 1), (2, 0, 1)], [], [(0, 1, 2)])
+            scene.collection.objects.link(bpy.data.objects.new("Sliver", bad))
+        if camera:
+            cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+            cam.location = (0, 0, 5)
+            scene.collection.objects.link(cam)
+            scene.camera = cam
+        if light:
+            lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
+            lamp.location = (0, 0, 2)
+            scene.collection.objects.link(lamp)
+        path = tmp_path / name
+        bpy.ops.wm.save_as_mainfile(filepath=str(path))
+        return path
+
+    return make
+
+
 def run_cli(*args, cwd=ROOT, timeout=600):
     """``python -m vpl_addon ARGS`` in a fresh interpreter: (exit code, stdout, stderr)."""
     proc = subprocess.run([sys.executable, "-m", "vpl_addon", *map(str, args)], cwd=cwd, capture_output=True,

@@ -17,25 +17,9 @@ pytestmark = pytest.mark.blender
 
 
 @pytest.fixture
-def blend(ext, tmp_path):
+def blend(small_blend):
     """A floor under a camera and a point light, saved to tmp_path/scene.blend."""
-    import bpy
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.resolution_x = scene.render.resolution_y = 12
-    mesh = bpy.data.meshes.new("Floor")
-    mesh.from_pydata([(-5, -5, 0), (5, -5, 0), (5, 5, 0), (-5, 5, 0)], [], [(0, 1, 2, 3)])
-    scene.collection.objects.link(bpy.data.objects.new("Floor", mesh))
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.location = (0, 0, 5)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "POINT"))
-    lamp.location = (0, 0, 2)
-    scene.collection.objects.link(lamp)
-    path = tmp_path / "scene.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(path))
-    return path
+    return small_blend(name="scene.blend")
 
 
 def spoil_gather(monkeypatch):
