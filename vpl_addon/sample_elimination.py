@@ -23,6 +23,7 @@ from scipy.sparse import csr_matrix
 from scipy.spatial import cKDTree
 
 WEIGHT_EXPONENT = 8  # Yuksel 2015, alpha in w = (1 - d / 2r)^alpha
+RIVALS = 16  # nearest live neighbours a candidate must outweigh to go in a round
 MODES = ("adaptive", "uniform", "none")
 
 
@@ -68,16 +69,18 @@ def _eliminate_rounds(dist, near, r_max, count, round_fraction):
     """Positions (in tree order) of the ``count`` survivors; ``dist``/``near`` are each candidate's neighbours."""
     total = len(r_max)
     # Yuksel's weight terms (1 - d / 2r_i)^8 of the pairs within 2 r_i, in float32 (the heavy (M,k) arrays)
+    near = near.astype(np.int32)
     ratio = dist.astype(np.float32) / (2.0 * r_max[:, None]).astype(np.float32)
-    self_pair = near == np.arange(total)[:, None]  # coincident duplicates can push a candidate off column 0
-    rows, cols = np.nonzero((ratio < 1.0) & ~self_pair)
-    term = 1.0 - ratio[rows, cols]
+    self_pair = near == np.arange(total, dtype=np.int32)[:, None]  # duplicates can push one off column 0
+    pair = (ratio < 1.0) & ~self_pair
+    rows = np.repeat(np.arange(total, dtype=np.int32), pair.sum(axis=1))  # boolean masks keep row-major order
+    term = 1.0 - ratio[pair]
     term *= term
     term *= term
     term *= term
     weight = np.bincount(rows, term, total)
     # who counts whom: removing j lowers the weight of every i whose list holds j (a CSR matrix by j)
-    counted = csr_matrix((term, (near[rows, cols], rows)), shape=(total, total))
+    counted = csr_matrix((term, (near[pair], rows)), shape=(total, total))
     starts, listed_by, listed_weight = counted.indptr, counted.indices, counted.data
     neighbour = np.where(self_pair, -1, near)
     alive = np.ones(total, bool)
@@ -87,7 +90,7 @@ def _eliminate_rounds(dist, near, r_max, count, round_fraction):
         cap = min(excess, max(1, int(round_fraction * len(live))))
         look = min(len(live), 3 * cap)
         top = live[np.argpartition(-weight[live], look - 1)[:look]] if look < len(live) else live
-        others = neighbour[top]
+        others = neighbour[top, :RIVALS]
         rival = np.where(others >= 0, alive[np.maximum(others, 0)], False)
         other_weight = weight[np.maximum(others, 0)]
         beats = (weight[top][:, None] > other_weight) | ((weight[top][:, None] == other_weight) &
