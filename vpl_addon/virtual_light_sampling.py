@@ -10,7 +10,7 @@ lights, combined by multiple importance sampling with the power heuristic (eq. 5
   s_i(y_r) L_i.
 
 *Adaptive camera path extension* (eq. 6-9): with the sample footprint a = |x - y|^2 / (p_BSDF(w) |cos theta_y|) and
-light density rho_i (eq. 8), each light's share is w_v = clamp((a rho_i - n_min) / (n_max - n_min), 0, 1); what the
+light density rho_i (eq. 8), each light's weight is w_v = clamp((a rho_i - n_min) / (n_max - n_min), 0, 1); what the
 lights do not cover, (1 - w_v), is found by extending the camera path from y: direct light at y by next-event
 estimation, and y's own indirect light by the same estimator one level deeper. Points no light covers extend
 fully (w_v = 0). The last allowed bounce uses the lights alone.
@@ -50,7 +50,7 @@ def _power_heuristic(a, b):
     return np.where(a2 > 0.0, a2 / np.maximum(a2 + b2, 1e-300), 0.0)
 
 
-def _share(footprint, density, settings, extend):
+def _blend_weight(footprint, density, settings, extend):
     """w_v of eq. 9 (1 where the path may not extend)."""
     if not extend:
         return np.ones_like(footprint)
@@ -96,12 +96,12 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
             at = ok[rows]
             jj = j[at]
             to_y = y.position - p[at]
-            pair, light, share = lights.shares(y.position, y.shading_normal)
-            mine = group_sum(pair, (share * (light == jj[pair]))[:, None], len(at))[:, 0]  # s_j(y)
+            pair, light, s = lights.shares(y.position, y.shading_normal)
+            mine = group_sum(pair, (s * (light == jj[pair]))[:, None], len(at))[:, 0]  # s_j(y)
             p_bsdf = cos_x[at] / np.pi
             footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
-            weight = mine * _power_heuristic(p_light[at], p_bsdf) * _share(footprint, density[jj], settings,
-                                                                            extend) * p_bsdf / p_light[at]
+            weight = mine * _power_heuristic(p_light[at], p_bsdf) * _blend_weight(footprint, density[jj],
+                                                                                   settings, extend) * p_bsdf / p_light[at]
             out += group_sum(owner[at], throughput[at] * radiance[jj] * weight[:, None], len(out))
 
         # BSDF sample: every light whose sphere holds the hit point
@@ -117,9 +117,9 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
         cone = _one_minus_cos_cone(lights.radius[light], np.linalg.norm(lights.position[light] - p[at][pair], axis=1))
         p_light = choice[light] / (2.0 * np.pi * cone)
-        share = _share(footprint[pair], density[light], settings, extend)
+        w_v = _blend_weight(footprint[pair], density[light], settings, extend)
         light_radiance = radiance[light] * mine[:, None]
-        estimate = group_sum(pair, light_radiance * (_power_heuristic(p_bsdf[pair], p_light) * share)[:, None],
+        estimate = group_sum(pair, light_radiance * (_power_heuristic(p_bsdf[pair], p_light) * w_v)[:, None],
                              len(at))
         out += group_sum(owner[at], throughput[at] * estimate, len(out))
         if not extend:
@@ -128,7 +128,7 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         # camera path extension: what the lights leave, (1 - mean w_v), comes from the path continued at y
         brightness = light_radiance.sum(axis=1)
         covered = group_sum(pair, brightness[:, None], len(at))[:, 0]
-        mean_share = np.where(covered > 0.0, group_sum(pair, (share * brightness)[:, None], len(at))[:, 0] /
+        mean_share = np.where(covered > 0.0, group_sum(pair, (w_v * brightness)[:, None], len(at))[:, 0] /
                               np.maximum(covered, 1e-300), 0.0)
         carry = throughput[at] * (1.0 - mean_share)[:, None] * y.albedo
         go = np.nonzero(carry.max(axis=1) > 0.0)[0]
