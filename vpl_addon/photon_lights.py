@@ -87,6 +87,11 @@ class PhotonLights:
         w = np.maximum(1.0 - (dist[rows, cols] / self.radius[light]) ** 2, 1e-12)  # the rim still counts
         return rows, light, w / np.bincount(rows, w, len(points))[rows]
 
+    def share_of(self, points: np.ndarray, normals: np.ndarray, light: np.ndarray) -> np.ndarray:
+        """(P,) s_j(point) of the given light j (P,) of each point: 0 outside its sphere."""
+        rows, covering, share = self.shares(points, normals)
+        return np.bincount(rows, share * (covering == light[rows]), len(points))
+
     def spread(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None,
                groups: int = 1) -> np.ndarray:
         """(N, groups, C): per-point values (P, C) shared among the covering lights, kept apart by ``group`` (P,)

@@ -18,8 +18,8 @@ import numpy as np
 from .camera_points import CameraPoints
 from .direct import diffuse_direct
 from .gather import sum_pairs
-from .sampling import cosine_hemisphere, dot
-from .surface import Surface, shade
+from .sampling import dot
+from .surface import Surface, diffuse_bounce
 from .virtual_lights import REVERSE, VirtualLights
 
 
@@ -86,15 +86,9 @@ def place(scene, tracer, lights, camera_points, target: int, standard: VirtualLi
         pts = CameraPoints.sample(scene, tracer, count, rng)
         attempts += count
         s1 = pts.surface
-        dirs, _ = cosine_hemisphere(rng.random(len(s1)), rng.random(len(s1)), s1.shading_normal)
-        leave = np.nonzero(dot(dirs, s1.geometric_normal) > 0.0)[0]
-        origins = tracer.offset_origin(s1.position[leave], s1.geometric_normal[leave])
-        hits = tracer.intersect(origins, dirs[leave])
-        rows = np.nonzero(hits.hit)[0]
-        s2 = shade(scene, dirs[leave], hits, rows)
-        src = leave[rows]
+        s2, src, _, _ = diffuse_bounce(scene, tracer, s1, rng)
         parts.append((s2, (s1.position[src], s1.geometric_normal[src], s1.shading_normal[src])))
-        found += len(rows)
+        found += len(s2)
     if not parts:
         return empty
     s2 = Surface.concat([p[0] for p in parts])

@@ -9,7 +9,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from .sampling import dot, normalize
+from .sampling import cosine_hemisphere, dot, normalize
 from .textures import sample_bilinear
 
 
@@ -65,3 +65,15 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
                    albedo=np.clip(base, 0.0, 1.0) * (1.0 - metallic)[:, None],
                    roughness=m.roughness[mat].astype(np.float64), metallic=metallic,
                    emission=m.emission[mat].astype(np.float64))
+
+
+def diffuse_bounce(scene, tracer, surface: Surface, rng: np.random.Generator):
+    """One cosine-weighted ray (the diffuse BSDF's sample) from every point of ``surface``, offset off it; rays
+    that would leave below the true surface are dropped. Returns (what the rays hit, the index of the point each
+    hit came from, the directions of all points, their cos theta)."""
+    dirs, cos = cosine_hemisphere(rng.random(len(surface)), rng.random(len(surface)), surface.shading_normal)
+    leave = np.nonzero(dot(dirs, surface.geometric_normal) > 0.0)[0]
+    hits = tracer.intersect(tracer.offset_origin(surface.position[leave], surface.geometric_normal[leave]),
+                            dirs[leave])
+    rows = np.nonzero(hits.hit)[0]
+    return shade(scene, dirs[leave], hits, rows), leave[rows], dirs, cos

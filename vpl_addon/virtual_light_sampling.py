@@ -26,8 +26,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .direct import diffuse_direct
-from .sampling import cosine_hemisphere, dot, group_sum, sample_cdf, uniform_cone
-from .surface import shade
+from .sampling import dot, group_sum, sample_cdf, uniform_cone
+from .surface import diffuse_bounce, shade
 
 
 @dataclass
@@ -77,7 +77,6 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         cdf = np.cumsum(choice)
         extend = settings.extension and depth + 1 < max_depth
         p, ng, ns = point.position, point.geometric_normal, point.shading_normal
-        origin = tracer.offset_origin(p, ng)
 
         # light sample (eq. 4), weighted against the BSDF pdf of the same direction
         if total_power > 0:
@@ -90,14 +89,13 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
             p_light = choice[j] / (2.0 * np.pi * cone)
             cos_x = dot(ns, w)
             ok = np.nonzero((cos_x > 0.0) & (dot(ng, w) > 0.0))[0]
-            hits = tracer.intersect(origin[ok], w[ok])
+            hits = tracer.intersect(tracer.offset_origin(p[ok], ng[ok]), w[ok])
             rows = np.nonzero(hits.hit)[0]
             y = shade(scene, w[ok], hits, rows)
             at = ok[rows]
             jj = j[at]
             to_y = y.position - p[at]
-            pair, light, s = lights.shares(y.position, y.shading_normal)
-            mine = group_sum(pair, (s * (light == jj[pair]))[:, None], len(at))[:, 0]  # s_j(y)
+            mine = lights.share_of(y.position, y.shading_normal, jj)  # s_j(y)
             p_bsdf = cos_x[at] / np.pi
             footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
             weight = mine * _power_heuristic(p_light[at], p_bsdf) * _blend_weight(footprint, density[jj],
@@ -105,12 +103,7 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
             out += group_sum(owner[at], throughput[at] * radiance[jj] * weight[:, None], len(out))
 
         # BSDF sample: every light whose sphere holds the hit point
-        w, cos_r = cosine_hemisphere(rng.random(len(p)), rng.random(len(p)), ns)
-        ok = np.nonzero(dot(ng, w) > 0.0)[0]
-        hits = tracer.intersect(origin[ok], w[ok])
-        rows = np.nonzero(hits.hit)[0]
-        y = shade(scene, w[ok], hits, rows)
-        at = ok[rows]
+        y, at, w, cos_r = diffuse_bounce(scene, tracer, point, rng)
         pair, light, mine = lights.shares(y.position, y.shading_normal)
         p_bsdf = cos_r[at] / np.pi
         to_y = y.position - p[at]

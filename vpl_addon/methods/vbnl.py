@@ -24,8 +24,8 @@ from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
 from ..photon_lights import ALPHA, PhotonLights
 from ..sample_elimination import MODES, eliminate
-from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
-from ..surface import shade
+from ..sampling import concentric_disk, dot, orthonormal_basis, stratified_2d
+from ..surface import diffuse_bounce, shade
 from .. import virtual_light_sampling
 
 PATHS_PER_BATCH = 1 << 16
@@ -63,14 +63,10 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
         step = max(1, PIXELS_PER_BATCH // spp)
         for lo in range(0, pixels, step):
             x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
-            w, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
-            ok = np.nonzero(dot(w, x.geometric_normal) > 0.0)[0]
-            hits = tracer.intersect(tracer.offset_origin(x.position[ok], x.geometric_normal[ok]), w[ok])
-            rows = np.nonzero(hits.hit)[0]
-            y = shade(scene, w[ok], hits, rows)
+            y = diffuse_bounce(scene, tracer, x, rng)[0]
             found_p.append(y.position)
             found_n.append(y.shading_normal)
-            found += len(rows)
+            found += len(y)
         if found >= count or found == 0:
             break
     return np.concatenate(found_p)[:count], np.concatenate(found_n)[:count]
@@ -100,8 +96,7 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
-        pair, light, share = lights.shares(y.position, y.shading_normal)
-        mine = np.bincount(pair, share * (light == j[rows][pair]), len(rows))
+        mine = lights.share_of(y.position, y.shading_normal, j[rows])
         area = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)
         out += np.bincount(j[rows], mine * area, len(lights))
     return out
