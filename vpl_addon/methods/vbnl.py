@@ -3,8 +3,10 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
 
 ``place`` follows sec. 3:
 1. candidates (sec. 3.1): M = ``candidates`` x N camera samples, the same number in every pixel; at each primary
-   hit x a BSDF-sampled (cosine) ray finds y, a point the gather can see: the candidate. (Diffuse surfaces only:
-   the extension of the camera path on highly specular surfaces, Fig. 6b, comes with glossy materials.)
+   hit x a BSDF-sampled (cosine) ray finds y, a point the gather can see: the candidate if y has a diffuse colour.
+   Lights hold diffusely reflected light only: a metallic lobe's light is found by extending the camera path
+   through it when rendering (``virtual_light_sampling``), the role Fig. 6b's extension on highly specular
+   surfaces plays in placement; no directional emission profiles are needed.
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
 3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
    never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
@@ -64,6 +66,7 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
         for lo in range(0, pixels, step):
             x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
             y = diffuse_bounce(scene, tracer, x, rng)[0]
+            y = y.take(np.nonzero(y.albedo.max(axis=1) > 0.0)[0])  # lights hold diffusely reflected light only
             found_p.append(y.position)
             found_n.append(y.shading_normal)
             found += len(y)
@@ -77,8 +80,8 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
     the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray from
     ``DROP`` r_j above to as far below, each standing for pi r_j^2 / per_light of the disc divided by the cosine
     between the surface and the disc; the sum of their shares s_j. Exact on flat surfaces; points past an edge
-    find no surface and add nothing. The short drop keeps other surfaces near the light (a shelf above a floor)
-    from hiding the light's own."""
+    find no surface, and points on surfaces without a diffuse colour (pure metal), add nothing. The short drop
+    keeps other surfaces near the light (a shelf above a floor) from hiding the light's own."""
     out = np.zeros(len(lights))
     if len(lights) == 0 or per_light <= 0:
         return out
@@ -96,7 +99,7 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
-        mine = lights.share_of(y.position, y.shading_normal, j[rows])
+        mine = lights.share_of(y.position, y.shading_normal, j[rows]) * (y.albedo.max(axis=1) > 0.0)
         area = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)
         out += np.bincount(j[rows], mine * area, len(lights))
     return out
@@ -135,6 +138,6 @@ def gather_samples(settings) -> int:
     return settings.vbnl.sampling.samples
 
 
-def gather(surface, lights, context, settings, rng):
+def gather(surface, lights, context, settings, rng, glossy=None):
     return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
-                                         settings.vbnl.sampling, context.max_bounces)
+                                         settings.vbnl.sampling, context.max_bounces, glossy)
