@@ -131,6 +131,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         indirect = np.zeros((w * h, 3))
         shine, shine_color = np.zeros((w * h, 3)), np.zeros((w * h, 3))  # glossy indirect light and its colour
         guide_position, guide_normal, guide_count = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros(w * h)
+        diffuse_seen = np.zeros(w * h, bool)
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
         cancelled = threading.Event()
@@ -174,7 +175,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 direct, glossy = np.zeros_like(surf.albedo), np.zeros_like(surf.albedo)
             marks["direct"] = time.perf_counter()
             if need_indirect:
-                rows = np.nonzero((gbuf.sample % gbuf.spp < gather_spp) & diffuse[:, 0])[0]
+                gathering = gbuf.sample % gbuf.spp < gather_spp
+                rows = np.nonzero(gathering & diffuse[:, 0])[0]
                 sub = surf.take(rows)
                 if sampled is None:
                     pix = gbuf.pixel_of_hit[rows]
@@ -185,7 +187,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
                 if lobe is not None and sampled is not None:
-                    shiny = np.nonzero((gbuf.sample % gbuf.spp < gather_spp) & (surf.metallic > 0.0))[0]
+                    shiny = np.nonzero(gathering & (surf.metallic > 0.0))[0]
                     many = np.repeat(shiny, repeats)
                     reflected = sampled(surf.take(many), vpls, context, settings.placement, rng,
                                         glossy=lobe.take(many))
@@ -194,10 +196,12 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     at = gbuf.sample[shiny] // gbuf.spp
                     shine[pixels] = group_sum(at, reflected, len(pixels))
                     shine_color[pixels] = group_sum(at, lobe.color[shiny], len(pixels))
-                local = gbuf.sample[rows] // gbuf.spp
-                indirect[pixels] = group_sum(local, light, len(pixels)) / gather_spp
-                guide_position[pixels] = group_sum(local, sub.position, len(pixels))
-                guide_normal[pixels] = group_sum(local, sub.shading_normal, len(pixels))
+                indirect[pixels] = group_sum(gbuf.sample[rows] // gbuf.spp, light, len(pixels)) / gather_spp
+                diffuse_seen[pixels] = np.bincount(gbuf.sample[rows] // gbuf.spp, minlength=len(pixels)) > 0
+                guides = np.nonzero(gathering)[0]  # the filter's guides: what the gathering samples see
+                local = gbuf.sample[guides] // gbuf.spp
+                guide_position[pixels] = group_sum(local, surf.position[guides], len(pixels))
+                guide_normal[pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
                 guide_count[pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
             images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission)
@@ -228,18 +232,24 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
 
     if need_indirect:
         t0 = time.perf_counter()
+        reflected = _divide(shine, shine_color)  # Glossy Indirect
         if settings.gather.filter and settings.gather.interleave > 1:
-            valid = guide_count > 0
             count = np.maximum(guide_count, 1)[:, None]
             position = guide_position / count
             normal = guide_normal / np.maximum(np.linalg.norm(guide_normal, axis=1, keepdims=True), 1e-300)
-            indirect = deinterleave(indirect.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
+
+            def smooth(image, valid):  # each lobe's light is filtered among the pixels that have that lobe
+                return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
                                     valid.reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
                                     settings.gather.interleave).reshape(-1, 3)
+            indirect = smooth(indirect, diffuse_seen)
             guard("filter", {P.DIFFUSE_INDIRECT: indirect})
-        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + shine / max(gather_spp, 1)
+            if need_glossy:
+                reflected = smooth(reflected, shine_color.max(axis=1) > 0.0)
+                guard("filter", {P.GLOSSY_INDIRECT: reflected})
+        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + reflected * shine_color / gather_spp
         if P.GLOSSY_INDIRECT in want:
-            images[P.GLOSSY_INDIRECT] = _divide(shine, shine_color)
+            images[P.GLOSSY_INDIRECT] = reflected
         timing["filter"] = time.perf_counter() - t0
         result.info["vpls"] = len(vpls)
     if P.DIFFUSE_INDIRECT in want:
