@@ -3,10 +3,11 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
 
 ``place`` follows sec. 3:
 1. candidates (sec. 3.1): M = ``candidates`` x N camera samples, the same number in every pixel; at each primary
-   hit x a BSDF-sampled (cosine) ray finds y, a point the gather can see: the candidate if y has a diffuse colour.
-   Lights hold diffusely reflected light only: a metallic lobe's light is found by extending the camera path
-   through it when rendering (``virtual_light_sampling``), the role Fig. 6b's extension on highly specular
-   surfaces plays in placement; no directional emission profiles are needed.
+   hit x a BSDF-sampled ray (the metallic lobe with probability Metallic, else cosine) finds y, a point the
+   gather can see: the candidate if y has a diffuse colour; on pure metal the camera path goes on (Fig. 6b), up to
+   ``SPECULAR_EXTENSION`` times. Lights hold diffusely reflected light only: a metallic lobe's light is found by
+   extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
+   and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
 3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
    never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
@@ -26,14 +27,16 @@ from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
 from ..photon_lights import ALPHA, PhotonLights
 from ..sample_elimination import MODES, eliminate
-from ..sampling import concentric_disk, dot, orthonormal_basis, stratified_2d
-from ..surface import diffuse_bounce, shade
+from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
+from ..microfacet import GlossyLobe
+from ..surface import Surface, bounce, diffuse_bounce, shade
 from .. import virtual_light_sampling
 
 PATHS_PER_BATCH = 1 << 16
 PIXELS_PER_BATCH = 1 << 14
 POINTS_PER_BATCH = 1 << 18
 DROP = 0.1  # catchment rays start this many radii above the light's tangent plane
+SPECULAR_EXTENSION = 4  # metal surfaces a candidate's camera path may pass before it gives up
 
 
 @dataclass
@@ -53,6 +56,18 @@ class VBNLSettings:
             raise ValueError("vbnl needs candidates >= 1, photons >= 0 and samples >= 1")
 
 
+def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
+    """What one BSDF-sampled ray from each point of ``x`` hits: the metallic lobe with probability Metallic,
+    the cosine-weighted diffuse lobe otherwise."""
+    if not scene.materials.glossy:
+        return diffuse_bounce(scene, tracer, x, rng)[0]
+    dirs, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
+    shiny = np.nonzero(rng.random(len(x)) < x.metallic)[0]
+    dirs[shiny] = GlossyLobe.of(x.take(shiny)).sample(rng.random(len(shiny)), rng.random(len(shiny)),
+                                                      np.arange(len(shiny)))[0]
+    return bounce(scene, tracer, x, dirs)[0]
+
+
 def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int = 8):
     """(positions, normals) of ``count`` points seen from camera-path ends (sec. 3.1), the same number of camera
     samples in every pixel; normals face the point that found them. Rays that find nothing (an open scene) are
@@ -65,7 +80,13 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
         step = max(1, PIXELS_PER_BATCH // spp)
         for lo in range(0, pixels, step):
             x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
-            y = diffuse_bounce(scene, tracer, x, rng)[0]
+            y = _bsdf_bounce(scene, tracer, x, rng)
+            for _ in range(SPECULAR_EXTENSION):  # Fig. 6b: on metal, the camera path goes on
+                metal = (y.albedo.max(axis=1) == 0.0) & (y.metallic > 0.0)
+                if not metal.any():
+                    break
+                y = Surface.concat([y.take(np.nonzero(~metal)[0]),
+                                    _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), rng)])
             y = y.take(np.nonzero(y.albedo.max(axis=1) > 0.0)[0])  # lights hold diffusely reflected light only
             found_p.append(y.position)
             found_n.append(y.shading_normal)
