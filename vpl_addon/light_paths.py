@@ -39,9 +39,10 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         rows = np.nonzero(hits.hit)[0]
         surf = shade(scene, dirs, hits, rows)
         incident = power[rows]
-        found.append(VirtualLights(surf.position, surf.shading_normal, incident * surf.albedo / np.pi,
-                                   np.full(len(rows), bounce, np.int32), np.full(len(rows), STANDARD, np.int8),
-                                   path[rows]))
+        lit = np.nonzero(surf.albedo.max(axis=1) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
+        found.append(VirtualLights(surf.position[lit], surf.shading_normal[lit],
+                                   incident[lit] * surf.albedo[lit] / np.pi, np.full(len(lit), bounce, np.int32),
+                                   np.full(len(lit), STANDARD, np.int8), path[rows][lit]))
         if bounce == max_bounces:
             break
         choose_diffuse = np.clip(surf.albedo.max(axis=1), 0.0, 1.0)
