@@ -6,8 +6,8 @@ lights, combined by multiple importance sampling with the power heuristic (eq. 5
 - power-based (eq. 4): light j with probability P_j / sum P, then a direction uniform in the cone that holds its
   sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j)); the ray's hit y adds s_j(y) L_j, zero outside the
   sphere (``photon_lights``: s_j is the light's share of y, L_j its radiance);
-- BSDF: a cosine-weighted direction w_r (the diffuse lobe) traced to y_r; every light whose sphere holds y_r adds
-  s_i(y_r) L_i.
+- BSDF: a direction w_r from the point's lobe (cosine-weighted for the diffuse one) traced to y_r; every light
+  whose sphere holds y_r adds s_i(y_r) L_i.
 
 *Adaptive camera path extension* (eq. 6-9): with the sample footprint a = |x - y|^2 / (p_BSDF(w) |cos theta_y|) and
 light density rho_i (eq. 8), each light's weight is w_v = clamp((a rho_i - n_min) / (n_max - n_min), 0, 1); what the
@@ -15,9 +15,17 @@ lights do not cover, (1 - w_v), is found by extending the camera path from y: di
 estimation, and y's own indirect light by the same estimator one level deeper. Points no light covers extend
 fully (w_v = 0). The last allowed bounce uses the lights alone.
 
-Per light the integrand w_v,i(w) s_i L_i cos / pi is one function of w for both strategies, so the MIS weights are
+Per light the integrand w_v,i(w) s_i L_i f cos is one function of w for both strategies, so the MIS weights are
 exact; the extension term is estimated from the BSDF sample with w_v averaged over the covering lights by their
-radiance. The result is the light reflected by a white Lambertian surface (Cycles' ``Diffuse Indirect``).
+radiance. The result is the light reflected by a white Lambertian surface (Cycles' ``Diffuse Indirect``) or, given
+a ``microfacet.GlossyLobe``, by the metallic lobe with its colour (``Glossy Indirect`` times ``Glossy Color``): the
+BSDF sample then follows visible normals and f cos is the GGX lobe's.
+
+Glossy surfaces along the path: the photon lights hold diffusely reflected light only (no light sits on pure
+metal, and none stores a directional emission profile), so a hit y with a metallic lobe always extends the camera
+path through that lobe (next-event estimation with the lobe, and a sample pair one level deeper); the photons that
+lit the walls via metal were traced through it (``light_paths``). With no diffuse surface in the scene at all
+there are no lights, and nothing indirect is rendered.
 """
 from __future__ import annotations
 
