@@ -27,6 +27,7 @@ class Texture:
     color0: tuple = (0.4, 0.4, 0.4)  # checkerboard colours (Mitsuba's defaults)
     color1: tuple = (0.2, 0.2, 0.2)
     uv_scale: tuple = (1.0, 1.0)  # to_uv scale of a checkerboard (cells of half a period)
+    element: str = ""  # the XML element, for messages
 
 
 @dataclass
@@ -78,6 +79,7 @@ class Environment:
     filename: str = ""
     matrix: np.ndarray = field(default_factory=lambda: np.eye(4))
     scale: float = 1.0
+    element: str = "emitter"
 
 
 @dataclass
@@ -90,6 +92,7 @@ class Camera:
     source_size: tuple  # (width, height) in the XML
     near: float = 1e-2
     far: float = 1e4
+    element: str = "sensor"
 
 
 @dataclass
@@ -297,13 +300,14 @@ class _Parser:
         kind = el.get("type")
         if kind == "bitmap":
             fn = self.prop(el, "filename", "")
-            return Texture("bitmap", filename=os.path.join(self.folder, fn))
+            return Texture("bitmap", filename=os.path.join(self.folder, fn), element=element_name(el))
         if kind == "checkerboard":
             uv = self.prop(el, "to_uv")
             scale = (float(np.linalg.norm(uv[:3, 0])), float(np.linalg.norm(uv[:3, 1]))) if uv is not None else (1, 1)
             c0 = self.prop(el, "color0", np.array([0.4] * 3))
             c1 = self.prop(el, "color1", np.array([0.2] * 3))
-            return Texture("checkerboard", color0=tuple(c0), color1=tuple(c1), uv_scale=scale)
+            return Texture("checkerboard", color0=tuple(c0), color1=tuple(c1), uv_scale=scale,
+                           element=element_name(el))
         self.warn(el, f"texture of {element_name(owner)} is not supported; using grey 0.5")
         return None
 
@@ -379,7 +383,7 @@ class _Parser:
                           f"VPL GI treats it as black (no diffuse part)")
             if tex is not None and tex.kind == "checkerboard":
                 tex = Texture("checkerboard", color0=tuple(np.asarray(tex.color0) * f0),
-                              color1=tuple(np.asarray(tex.color1) * f0), uv_scale=tex.uv_scale)
+                              color1=tuple(np.asarray(tex.color1) * f0), uv_scale=tex.uv_scale, element=tex.element)
             return Material(name, tuple(np.clip(spec * f0, 0, 1)), tex, roughness=rough, metallic=1.0, specular=0.5)
         if kind in ("dielectric", "roughdielectric", "thindielectric"):
             ior = self._ior(el)
@@ -479,7 +483,7 @@ class _Parser:
         elif kind == "envmap":
             fn = os.path.join(self.folder, self.prop(el, "filename", ""))
             scene.environment = Environment("envmap", filename=fn, matrix=matrix,
-                                            scale=float(self.prop(el, "scale", 1.0)))
+                                            scale=float(self.prop(el, "scale", 1.0)), element=element_name(el))
         elif kind == "constant":
             scene.environment = Environment("constant", radiance=self.prop(el, "radiance", np.ones(3)))
         elif kind == "area":
@@ -514,7 +518,7 @@ class _Parser:
         height = max(1, round(width * h / w))
         return Camera(matrix, float(fov), axis, width, height, (w, h),
                       near=float(self.prop(el, "near_clip", self.prop(el, "nearClip", 1e-2))),
-                      far=float(self.prop(el, "far_clip", self.prop(el, "farClip", 1e4))))
+                      far=float(self.prop(el, "far_clip", self.prop(el, "farClip", 1e4))), element=element_name(el))
 
     def integrator_depth(self, el) -> int | None:
         depth = self.prop(el, "max_depth", self.prop(el, "maxDepth", None))

@@ -137,7 +137,7 @@ def make_material(m: mitsuba.Material, warnings: list, emission=None):
         i["Emission Strength"].default_value = peak
     tex = m.texture
     if tex is not None and tex.kind == "bitmap":
-        image = _image(tex.filename, warnings, f"material {m.name!r}")
+        image = _image(tex.filename, warnings, tex.element or f"material {m.name!r}")
         if image is not None:
             node = nodes.new("ShaderNodeTexImage")
             node.image = image
@@ -306,7 +306,7 @@ def _camera(scene, cam: mitsuba.Camera, warnings: list) -> None:
     scale = np.linalg.norm(m[:3, :3], axis=0)
     m[:3, :3] /= scale
     if np.linalg.det(m[:3, :3]) < 0:
-        warnings.append("sensor: its to_world is mirrored; Blender cameras cannot mirror, the image is flipped "
+        warnings.append(f"{cam.element}: its to_world is mirrored; Blender cameras cannot mirror, the image is flipped "
                         "left to right against the source")
         m[:3, 0] *= -1
     data = bpy.data.cameras.new("Camera")
@@ -354,7 +354,7 @@ def _world(scene, env: mitsuba.Environment | None, warnings: list) -> None:
         bg.inputs["Color"].default_value = (*(env.radiance / peak), 1.0)
         bg.inputs["Strength"].default_value = peak
         return
-    image = _image(env.filename, warnings, "emitter type=\"envmap\"")
+    image = _image(env.filename, warnings, env.element)
     if image is None:
         bg.inputs["Strength"].default_value = 0.0
         return
@@ -365,10 +365,9 @@ def _world(scene, env: mitsuba.Environment | None, warnings: list) -> None:
     rows = (np.arange(h) + 0.5) / h * np.pi  # Blender's rows go bottom to top; sin is symmetric
     weight = np.sin(rows)[:, None]
     mean = (rgb * weight[..., None]).sum((0, 1)) / (weight.sum() * w)
-    peak = float(max(mean.max(), 1e-12))
-    bg.inputs["Color"].default_value = (*(mean / peak), 1.0)  # what VPL GI uses: the map's mean radiance
-    bg.inputs["Strength"].default_value = peak * env.scale
-    # Cycles: the texture itself, times scale (Background Color is unused once linked)
+    # VPL GI reads the unlinked Color value times Strength: the map's mean radiance. Cycles reads the texture
+    # (the Color value is unused once linked) times Strength: the map itself. Both scaled by Mitsuba's scale.
+    bg.inputs["Color"].default_value = (*mean, 1.0)
     coords = nodes.new("ShaderNodeTexCoord")
     mapping = nodes.new("ShaderNodeMapping")
     mapping.vector_type = "VECTOR"
@@ -381,7 +380,7 @@ def _world(scene, env: mitsuba.Environment | None, warnings: list) -> None:
     links.new(tex.outputs["Color"], bg.inputs["Color"])
     bg.inputs["Strength"].default_value = env.scale
     world["vpl_gi_mean_radiance"] = [float(x) for x in mean * env.scale]
-    warnings.append(f"emitter type=\"envmap\" filename=\"{os.path.basename(env.filename)}\": Cycles uses the map; "
+    warnings.append(f"{env.element} (filename \"{os.path.basename(env.filename)}\"): Cycles uses the map; "
                     f"VPL GI has no environment textures and uses its mean radiance "
                     f"({', '.join(f'{x:.3g}' for x in mean * env.scale)}) through the Background colour")
 

@@ -246,3 +246,44 @@ def test_cornell_measured_converts_to_blender_and_extracts(ext, tmp_path):
     assert got.lights[0].power == pytest.approx(np.array(lamp.data.color) * lamp.data.energy, rel=1e-5)
     white = bpy.data.materials["White"].node_tree.nodes["Principled BSDF"].inputs
     assert white["Roughness"].default_value == 1 and white["Specular IOR Level"].default_value == 0
+
+
+@pytest.mark.blender
+def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
+    """A lat-long map whose texels encode their own (u, v), rotated by a to_world: Cycles, looking along a few
+    directions through the converted world, sees the texel Mitsuba's envmap lookup gives for that direction."""
+    import OpenEXR
+    import tempfile
+    scene_import = importlib.import_module(f"{ext.__name__}.operators.scene_import")
+    read_passes = importlib.import_module(f"{ext.__name__}.vpl_addon.exr").read_passes
+    render_to = importlib.import_module(f"{ext.__name__}.operators.output").render_to
+    from mathutils import Vector
+    h, w = 32, 64
+    v, u = np.mgrid[0:h, 0:w]
+    img = np.stack([(u + 0.5) / w, (v + 0.5) / h, np.full((h, w), 0.25)], -1).astype(np.float32)
+    path = str(tmp_path / "sky.exr")
+    OpenEXR.File({"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}, {"RGB": img}).write(path)
+    to_world = mitsuba._rotation([0.3, 1.0, 0.2], 70.0)
+    data = mitsuba.MitsubaScene(path, mitsuba.Camera(np.eye(4), 1.0, "x", 4, 4, (4, 4)),
+                                environment=mitsuba.Environment("envmap", filename=path, matrix=to_world,
+                                                                element='emitter type="envmap"'))
+    scene, warnings = scene_import.build(data, samples=4)
+    assert any(line.startswith('emitter type="envmap" (filename "sky.exr"): Cycles uses the map') for line in warnings)
+    bg = scene.world.node_tree.nodes["Background"]
+    mean = np.array(bg.inputs["Color"].default_value[:3]) * bg.inputs["Strength"].default_value
+    # what VPL GI will use: the solid-angle mean (v is symmetric about the horizon, so its mean is 1/2)
+    assert mean == pytest.approx([0.5, 0.5, 0.25], rel=2e-3)
+    assert np.allclose(scene.world["vpl_gi_mean_radiance"], mean)
+    scene.render.film_transparent = False
+    scene.cycles.pixel_filter_type = "BOX"
+    scene.camera.data.lens = 3000.0  # a pencil of rays around the view direction
+    rot_inv = np.linalg.inv(to_world[:3, :3])
+    for d in ([0.6, 0.3, 0.5], [-0.2, 0.7, 0.3], [-0.5, -0.6, 0.4], [0.3, -0.5, -0.6]):
+        d_blender = np.array(d) / np.linalg.norm(d)
+        scene.camera.matrix_world = Vector(d_blender).to_track_quat("-Z", "Z").to_matrix().to_4x4()
+        with tempfile.TemporaryDirectory() as tmp:
+            render_to(scene, os.path.join(tmp, "x.exr"))
+            got = read_passes(os.path.join(tmp, "x.exr"))[0]["Combined"][..., :2].mean((0, 1))
+        local = rot_inv @ (scene_import.C[:3, :3].T @ d_blender)  # Mitsuba world, then the map's local frame
+        want = [(math.atan2(local[0], -local[2]) / (2 * math.pi)) % 1.0, math.acos(local[1]) / math.pi]
+        assert got == pytest.approx(want, abs=1.5 / h), d
