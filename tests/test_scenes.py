@@ -287,3 +287,19 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
         local = rot_inv @ (scene_import.C[:3, :3].T @ d_blender)  # Mitsuba world, then the map's local frame
         want = [(math.atan2(local[0], -local[2]) / (2 * math.pi)) % 1.0, math.acos(local[1]) / math.pi]
         assert got == pytest.approx(want, abs=1.5 / h), d
+
+
+def test_color_divided_passes_leave_out_pixels_without_diffuse_colour():
+    """Cycles writes Diffuse Direct/Indirect = 0 where Diffuse Color is 0 (a metal floor): those pixels are not
+    compared, or a correct engine value there would count as an error of 100 times the mean."""
+    from vpl_addon.metrics import errors, pass_mask
+    ref_color = np.ones((2, 2, 3))
+    ref_color[0, 0] = 0.0  # metal
+    reference = {"Diffuse Color": ref_color, "Diffuse Indirect": np.where(ref_color > 0, 0.5, 0.0)}
+    mine = np.full((2, 2, 3), 0.5)
+    full = np.ones((2, 2), bool)
+    assert pass_mask("Combined", reference, full).all()
+    kept = pass_mask("Diffuse Indirect", reference, full)
+    assert kept.sum() == 3 and not kept[0, 0]
+    assert errors(mine, reference["Diffuse Indirect"], kept)["rmae"] == 0.0
+    assert errors(mine, reference["Diffuse Indirect"], full)["rmae"] > 10
