@@ -30,12 +30,15 @@ C = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
 CAMERA_FLIP = np.diag([-1.0, 1.0, -1.0, 1.0])
 SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "scene_import.py")
 
-# name -> (folder under ../shared/scenes, file inside it, parser)
+# name -> (folder under ../shared/scenes, file inside it, parser). "mitsuba-diffuse": every BSDF made Lambertian
+# with its base colour (checkerboards by their mean colour), the variant on which VPL GI's diffuse-only methods and
+# Cycles solve the same light transport.
 SCENES = {
     "cornell_measured": ("cornell_box_measured", cornell_measured.DATA, "cornell"),
     "cornell_bitterli": ("cornell_box_bitterli", "scene.xml", "mitsuba"),
     "veach_bidir": ("veach_bidir_bitterli", "scene.xml", "mitsuba"),
     "veach_ajar": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba"),
+    "veach_ajar_diffuse": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba-diffuse"),
     "living_room": ("living_room_bitterli", "scene.xml", "mitsuba"),
 }
 REFERENCE_IMAGES = {"cornell_bitterli": "TungstenRender.exr", "veach_bidir": "TungstenRender.exr"}
@@ -47,11 +50,27 @@ def load(source_dir: str, name: str, width: int = mitsuba.DEFAULT_WIDTH) -> mits
     if kind == "cornell":
         return cornell_measured.parse(os.path.dirname(path), width)
     scene = mitsuba.parse(path, width)
+    if kind == "mitsuba-diffuse":
+        lambertian(scene)
     missing = os.path.join(source_dir, folder, "MISSING.txt")
     if os.path.isfile(missing):
         scene.warnings.append(f"scene: {folder}/MISSING.txt: some meshes of the original scene are not in this copy "
                               f"(see the 'mesh file ... is missing' warnings)")
     return scene
+
+
+def lambertian(scene: mitsuba.MitsubaScene) -> None:
+    """Every material of ``scene`` made a pure diffuse one with its base colour; a checkerboard becomes its mean
+    colour (VPL GI has no procedural textures), image textures stay."""
+    done = {}
+    for shape in scene.shapes:
+        m = shape.material
+        if id(m) not in done:
+            tex = m.texture if m.texture is not None and m.texture.kind == "bitmap" else None
+            done[id(m)] = mitsuba.Material(m.name, m.base_color, tex)
+        shape.material = done[id(m)]
+    scene.warnings.append("scene: diffuse variant: every BSDF replaced by a Lambertian one with its base colour "
+                          "(metals, plastics and glass too; checkerboards by their mean colour)")
 
 
 def fingerprint(source_dir: str, name: str, width: int) -> str:
