@@ -5,7 +5,8 @@ filtered down to our resolution), and a side-by-side PNG (ours | reference, the 
     .venv/bin/python bench/scene_check.py [NAME ...] [--scenes scenes] [--source ../shared/scenes] [--samples 256]
         [--out bench/results/scenes]
 
-Scenes without a shipped reference are rendered too (their PNG shows ours alone), so framing can be checked by eye.
+Scenes without a shipped reference are rendered too (their PNG shows ours alone), so framing can be checked by eye;
+``--exr NAME=PATH`` takes an existing Cycles EXR of a scene (e.g. its converged reference) instead of rendering.
 Run it under ``nice``: each scene is a Cycles render of a minute or more on 2 cores.
 """
 from __future__ import annotations
@@ -75,13 +76,23 @@ def main(argv=None) -> int:
     p.add_argument("--source", default=os.path.join(ROOT, "..", "shared", "scenes"))
     p.add_argument("--samples", type=int, default=256)
     p.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "scenes"))
+    p.add_argument("--exr", action="append", default=[], metavar="NAME=PATH",
+                   help="use this Cycles EXR for scene NAME instead of rendering it")
     args = p.parse_args(argv)
     os.makedirs(args.out, exist_ok=True)
-    rows = []
+    given = dict(spec.split("=", 1) for spec in args.exr)
+    summary = os.path.join(args.out, "check.json")
+    rows = json.load(open(summary)) if os.path.isfile(summary) else []
     for name in args.names or list(scene_import.SCENES):
-        blend = os.path.join(args.scenes, name + ".blend")
-        ours, seconds = render_cycles(blend, args.samples)
-        row = {"scene": name, "samples": args.samples, "seconds": round(seconds, 1),
+        if name in given:
+            images, header = exr.read_passes(given[name])
+            ours, seconds = images["Combined"][..., :3].astype(np.float64), None
+            samples = json.loads(header.get(reference.HEADER_KEY, "{}")).get("samples")
+        else:
+            blend = os.path.join(args.scenes, name + ".blend")
+            ours, seconds = render_cycles(blend, args.samples)
+            samples = args.samples
+        row = {"scene": name, "samples": samples, "seconds": seconds and round(seconds, 1),
                "mean_ours": [round(float(v), 5) for v in ours.mean((0, 1))]}
         ref_name = scene_import.REFERENCE_IMAGES.get(name)
         panels = [ours]
@@ -99,9 +110,9 @@ def main(argv=None) -> int:
         strip = np.concatenate([to_png(x, exposure) for x in panels], axis=1)
         Image.fromarray(strip).save(os.path.join(args.out, f"{name}.png"), optimize=True)
         row["exposure"] = round(exposure, 4)
-        rows.append(row)
+        rows = [r for r in rows if r["scene"] != name] + [row]
         print(json.dumps(row), flush=True)
-    with open(os.path.join(args.out, "check.json"), "w") as f:
+    with open(summary, "w") as f:
         json.dump(rows, f, indent=1)
     return 0
 
