@@ -2,7 +2,8 @@
 shrinks about k times while a method's bias stays, which separates the two when the reference is not converged
 (the bench's rMAE of a method that is better than the reference's noise only measures that noise).
 
-    .venv/bin/python bench/block_error.py REF.exr IMAGE.exr [IMAGE.exr ...] [--pass "Diffuse Indirect"] [--blocks 1,2,4,8]
+    .venv/bin/python bench/block_error.py REF.exr IMAGE.exr [IMAGE.exr ...] [--pass "Diffuse Indirect"]
+        [--blocks 1,2,4,8]
 """
 from __future__ import annotations
 
