@@ -303,3 +303,12 @@ def test_color_divided_passes_leave_out_pixels_without_diffuse_colour():
     assert kept.sum() == 3 and not kept[0, 0]
     assert errors(mine, reference["Diffuse Indirect"], kept)["rmae"] == 0.0
     assert errors(mine, reference["Diffuse Indirect"], full)["rmae"] > 10
+
+
+def test_scenes_command_bad_input_is_one_line(tmp_path):
+    from conftest import run_cli
+    from test_cli import assert_one_line_error
+    code, _, stderr = run_cli("scenes", "--source", tmp_path / "nowhere", "--out", tmp_path)
+    assert_one_line_error(code, stderr, "no such folder")
+    code, _, stderr = run_cli("scenes", "kitchen", "--source", tmp_path, "--out", tmp_path)
+    assert_one_line_error(code, stderr, "unknown scene 'kitchen'")
