@@ -5,8 +5,8 @@ cores: `make test-all` and the benchmark runs, not CI.
 The assertions are the ones a broken conversion or a broken method on a real scene would fail: every method and
 Cycles produce finite errors, rays and a peak memory; Cycles converges towards the reference; and each engine
 method's mean Diffuse Indirect at its largest budget is near Cycles': within 25 % on the scenes whose materials the
-engine represents exactly (diffuse only), within [0.4, 2.5] on the others (their glossy transport is missing from
-the engine by design; a light unit off by pi or 4 pi, an emitter on the wrong side or a camera looking elsewhere
+engine represents exactly (diffuse only), within [0.4, 2.5] on the others (their dielectric specular and transmission are missing from
+the engine, and the environment map is a constant; a light unit off by pi or 4 pi, an emitter on the wrong side or a camera looking elsewhere
 still falls outside). Known engine issues are xfail with their reason, so a fix shows up as XPASS."""
 from __future__ import annotations
 
@@ -20,8 +20,7 @@ from conftest import ROOT, run_cli
 SHARED = ROOT.parent / "shared" / "scenes"
 SCENES = ("cornell_measured", "cornell_bitterli", "veach_bidir", "veach_ajar", "veach_ajar_diffuse", "living_room")
 EXACT = {"cornell_measured", "cornell_bitterli", "veach_ajar_diffuse"}  # diffuse-only materials
-KNOWN = {("living_room", "vbnl"): "vbnl over-counts the world light in a room lit through windows (3.7x too "
-                                  "bright Diffuse Indirect; bench/README.md, real scenes)"}
+KNOWN: dict[tuple[str, str], str] = {}  # (scene, method) -> reason; vbnl's living-room leak is fixed (SLAB)
 pytestmark = [pytest.mark.slow, pytest.mark.blender,
               pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/scenes is not beside the repository")]
 
