@@ -13,6 +13,7 @@ import numpy as np
 from ..vpl_addon import passes as P
 from ..vpl_addon.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
+from .bake import active_sequence
 from .extract import ExtractionError, extract
 
 # (pass name, view layer toggle, channels, channel ids)
@@ -63,6 +64,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self._report("WARNING", warning)
         passes = requested_passes(view_layer)
         settings = scene.vpl_gi.render_settings(passes)
+        sequence, settings.seed = active_sequence(scene, settings, self.is_animation)  # a bake or blender -a
 
         def progress(fraction, text):
             self.update_progress(fraction)
@@ -70,7 +72,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             return not self.test_break()
 
         try:
-            result = render(built, settings, progress)
+            result = render(built, settings, progress, sequence=sequence)
         except Cancelled:
             self._report("INFO", "render cancelled")
             return

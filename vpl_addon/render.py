@@ -78,7 +78,9 @@ def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
     return np.linalg.norm(position - camera.position, axis=1) * size
 
 
-def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None) -> RenderResult:
+def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None,
+           sequence=None) -> RenderResult:
+    """One frame; ``sequence`` (a ``sequence.SequenceState``) carries the method's state from the previous frame."""
     cam = scene.camera
     w, h = cam.width, cam.height
     result = RenderResult(passes={})
@@ -88,7 +90,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     for name, count in scene.dropped.items():
         result.warnings.append(f"object {name!r}: {count} degenerate or non-finite triangles skipped")
     t0 = time.perf_counter()
-    tracer = Tracer(scene.triangles)
+    tracer = Tracer(scene.triangles) if sequence is None else sequence.begin(scene)
     lights = LightSet(scene)
     if len(lights) == 0:
         result.warnings.append("the scene has no lights: direct and indirect light are black")
@@ -105,7 +107,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if need_indirect:
             t0 = time.perf_counter()
             context = MethodContext(scene, tracer, lights, np.random.default_rng([settings.seed, 1 << 20]), bounces)
-            vpls, result.info = place(settings.method, context, settings.placement)
+            vpls, result.info = (place if sequence is None else sequence.place)(settings.method, context,
+                                                                                settings.placement)
             guard("place", {"VPL intensity": vpls.intensity})
             if sampled is None:
                 d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
@@ -191,7 +194,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if cancelled.is_set():
             raise Cancelled()
     finally:
-        tracer.close()
+        if sequence is None:  # a sequence keeps its BVH for the next frame
+            tracer.close()
 
     if need_indirect:
         t0 = time.perf_counter()
