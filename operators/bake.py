@@ -34,7 +34,7 @@ FRAME_NAME = "frame_{:04d}.exr"
 # ``blender -b -a`` (``render(animation=True)``) the engine keeps one per scene and settings in ``_ANIMATION``.
 _ACTIVE: SequenceState | None = None
 _ANIMATION: dict[str, tuple[SequenceState, int]] = {}  # key -> (state, last frame)
-# Per-frame figures of the frames rendered with a sequence state (frame, light paths, rays, reused, BVH builds).
+# Frames rendered with a sequence state, as the engine reports them (frame, light paths, reused, BVH builds).
 FRAME_LOG: list[dict] = []
 
 

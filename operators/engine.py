@@ -13,7 +13,7 @@ import numpy as np
 from ..vpl_addon import passes as P
 from ..vpl_addon.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
-from .bake import active_sequence
+from .bake import FRAME_LOG, active_sequence
 from .extract import ExtractionError, extract
 
 # (pass name, view layer toggle, channels, channel ids)
@@ -84,6 +84,9 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             return
         for warning in result.warnings:
             self._report("WARNING", warning)
+        if sequence is not None:
+            FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
+                              "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds})
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info)
