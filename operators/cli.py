@@ -179,13 +179,21 @@ def cmd_reference(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from ..vpl_addon.compare import compare_files
-    for path in (args.image, args.reference):
-        if not os.path.isfile(path):
+    from ..vpl_addon.compare import compare_files, compare_sequences
+    folders = [os.path.isdir(p) for p in (args.image, args.reference)]
+    for path, folder in zip((args.image, args.reference), folders):
+        if not (folder or os.path.isfile(path)):
             raise UserError(f"no such file: {path}")
+    if folders[0] != folders[1]:
+        raise UserError("compare two files, or two folders of frame_NNNN.exr (a sequence and its references)")
     names = [n.strip() for n in args.passes.split(",")] if args.passes else None
     try:
-        result = compare_files(args.image, args.reference, names, args.heatmap)
+        if folders[0]:
+            if args.heatmap:
+                raise UserError("--heatmap is for single images, not sequences")
+            result = compare_sequences(args.image, args.reference, names)
+        else:
+            result = compare_files(args.image, args.reference, names, args.heatmap)
     except ValueError as err:
         raise UserError(str(err)) from None
     print(json.dumps(result, indent=2))
@@ -292,9 +300,10 @@ def parser() -> argparse.ArgumentParser:
                      help="where converged references are kept by hash")
     ref.add_argument("--overwrite", action="store_true")
     ref.set_defaults(run=cmd_reference)
-    c = sub.add_parser("compare", help="error of every common pass against a reference, as JSON")
-    c.add_argument("image")
-    c.add_argument("reference")
+    c = sub.add_parser("compare", help="error of every common pass against a reference, as JSON; for two folders "
+                                       "of frame_NNNN.exr, |E| and |E'| of the sequence (Hedman et al.)")
+    c.add_argument("image", help="an EXR, or a folder of frames (a bake)")
+    c.add_argument("reference", help="its reference, or a folder of per-frame references")
     c.add_argument("--heatmap", help="PNG of the per-pixel relative error")
     c.add_argument("--passes", help="comma-separated pass names (default: all in common)")
     c.set_defaults(run=cmd_compare)
