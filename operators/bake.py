@@ -46,7 +46,7 @@ def settings_key(scene) -> dict:
     """Everything about the scene's settings that changes the baked pixels (not the frame range)."""
     props = scene.vpl_gi
     values = {p.identifier: getattr(props, p.identifier) for p in props.bl_rna.properties
-              if p.identifier not in {"rna_type", "name"}}
+              if p.identifier not in {"rna_type", "name", "bake_directory", "bake_overwrite"}}
     r = scene.render
     values.update(resolution=[r.resolution_x, r.resolution_y, r.resolution_percentage])
     return values
@@ -157,6 +157,18 @@ class Bake:
             render_frame: Callable[[str], None] | None = None) -> BakeReport:
         """Render the unfinished frames in order; ``progress(fraction, text)`` returning False stops after the
         current frame. ``render_frame(path)`` renders the scene's current frame to ``path`` atomically."""
+        steps = self.steps(render_frame)
+        try:
+            for fraction, frame in steps:
+                if progress is not None and progress(fraction, f"frame {frame}") is False:
+                    break
+        finally:
+            steps.close()
+        return self.report
+
+    def steps(self, render_frame: Callable[[str], None] | None = None):
+        """The bake one frame at a time (for a modal operator): yields (fraction done, frame) after each frame it
+        renders; closing the generator ends the bake cleanly after the last finished frame."""
         global _ACTIVE
         from . import engine
         from .output import render_to
@@ -193,13 +205,12 @@ class Bake:
                     os.unlink(_state_path(self.out_dir, frame - 1))
                 stats = dict(engine.LAST_STATS)
                 info = stats.get("info", {})
-                entry = {"frame": frame, "light_paths": info.get("light_paths"), "reused": bool(info.get("reused")),
-                         "rays": stats.get("rays"), "bvh_builds": state.bvh_builds,
-                         "seconds": sum(stats.get("seconds", {}).values())}
                 report.rendered.append(frame)
-                report.frames.append(entry)
-                if progress is not None and progress((number + 1) / len(self.frames), f"frame {frame}") is False:
-                    break
+                report.frames.append({"frame": frame, "light_paths": info.get("light_paths"),
+                                      "reused": bool(info.get("reused")), "rays": stats.get("rays"),
+                                      "bvh_builds": state.bvh_builds,
+                                      "seconds": sum(stats.get("seconds", {}).values())})
+                yield (number + 1) / len(self.frames), frame
         finally:
             _ACTIVE = None
             if state is not None:
@@ -207,4 +218,122 @@ class Bake:
             for name, value in stamps.items():
                 setattr(scene.render, name, value)
             scene.frame_set(original_frame)
-        return report
+
+
+def _engine_error():
+    from . import engine
+    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
+    if errors:
+        raise BakeError(errors[0])
+
+
+class VPLGI_OT_bake_sequence(bpy.types.Operator):
+    """Render the scene's frame range with VPL GI to one multilayer EXR per frame, carrying the method's state
+    from frame to frame; a bake started again continues after its last finished frame"""
+    bl_idname = "vpl_gi.bake_sequence"
+    bl_label = "Bake Indirect Sequence"
+    bl_options = {"REGISTER"}
+
+    _steps = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and context.scene.render.engine == "VPL_GI"
+
+    def _start(self, context):
+        scene = context.scene
+        folder = bpy.path.abspath(scene.vpl_gi.bake_directory)
+        if not folder:
+            raise BakeError("set the bake folder first")
+        bake = Bake(scene, folder, range(scene.frame_start, scene.frame_end + 1),
+                    overwrite=scene.vpl_gi.bake_overwrite)
+        from .output import render_to
+        return bake, bake.steps(lambda path: render_to(scene, path, _engine_error))
+
+    def execute(self, context):  # scripts and background mode: the whole range, blocking
+        try:
+            bake, steps = self._start(context)
+            for _ in steps:
+                pass
+        except (BakeError, OSError, RuntimeError) as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"baked {len(bake.report.rendered)} frames to {bake.out_dir}")
+        return {"FINISHED"}
+
+    def invoke(self, context, event):  # the UI: one frame per timer tick, progress on the cursor, ESC stops
+        try:
+            self._bake, self._steps = self._start(context)
+        except (BakeError, OSError) as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, len(self._bake.frames))
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._finish(context)
+            self.report({"WARNING"}, f"bake stopped after {len(self._bake.report.rendered)} frames; bake again "
+                                     f"to continue")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, frame = next(self._steps)
+        except StopIteration:
+            self._finish(context)
+            self.report({"INFO"}, f"baked {len(self._bake.report.rendered)} frames to {self._bake.out_dir}")
+            return {"FINISHED"}
+        except (BakeError, OSError, RuntimeError) as err:
+            self._finish(context)
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        context.window_manager.progress_update(int(round(fraction * len(self._bake.frames))))
+        context.workspace.status_text_set(f"VPL GI bake: frame {frame} done ({fraction * 100:.0f} %), ESC to stop")
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context):
+        self._steps.close()
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+
+
+class RENDER_PT_vpl_gi_bake(bpy.types.Panel):
+    bl_label = "Bake Sequence"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_vpl_gi"
+    COMPAT_ENGINES = {"VPL_GI"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.vpl_gi
+        layout.prop(settings, "bake_directory")
+        layout.prop(settings, "bake_overwrite")
+        layout.label(text=f"Frames {context.scene.frame_start} to {context.scene.frame_end}")
+        layout.operator(VPLGI_OT_bake_sequence.bl_idname, icon="RENDER_ANIMATION")
+
+
+CLASSES = (VPLGI_OT_bake_sequence, RENDER_PT_vpl_gi_bake)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

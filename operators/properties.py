@@ -67,6 +67,13 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Seed", default=_RENDER.seed, min=0,
         description="Seed of the random numbers: the same seed gives the same image")
 
+    bake_directory: bpy.props.StringProperty(
+        name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
+        description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
+    bake_overwrite: bpy.props.BoolProperty(
+        name="Replace Other Bake", default=False,
+        description="Replace a bake of other settings (or frames not from a bake) found in the folder")
+
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               method=self.method, indirect_samples=self.indirect_samples,

@@ -113,3 +113,33 @@ def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
         assert [e["reused"] for e in log] == reused
         assert [e["light_paths"] == 0 for e in log] == reused
         assert log[-1]["bvh_builds"] == 1
+
+
+def _small_scene(bpy, engine, blend):
+    bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / f"{blend}.blend"))
+    scene = bpy.context.scene
+    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+    scene.render.resolution_percentage = 25
+    scene.vpl_gi.method, scene.vpl_gi.vpls, scene.vpl_gi.samples, scene.vpl_gi.light_samples = "bidir", 128, 1, 1
+    return scene
+
+
+def test_bake_operator_renders_the_frame_range_and_stopping_keeps_what_is_done(ext, tmp_path):
+    """The render panel's "Bake Indirect Sequence" bakes frame_start..frame_end into the bake folder; a bake stopped
+    after a frame (ESC) continues from that frame's state when started again."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    scene = _small_scene(bpy, engine, "seq_moving_light")
+    scene.frame_start, scene.frame_end = 3, 5
+    scene.vpl_gi.bake_directory = str(tmp_path / "op")
+    assert bpy.ops.vpl_gi.bake_sequence() == {"FINISHED"}
+    assert frames_in(tmp_path / "op") == ["frame_0003.exr", "frame_0004.exr", "frame_0005.exr"]
+    assert scene.frame_current == 1 and scene.render.use_stamp_date  # the user's scene is as it was
+
+    stopped = bake.Bake(scene, str(tmp_path / "esc"), range(3, 6))
+    report = stopped.run(progress=lambda fraction, text: False)  # ESC after the first frame
+    assert report.rendered == [3] and frames_in(tmp_path / "esc") == ["frame_0003.exr"]
+    report = bake.Bake(scene, str(tmp_path / "esc"), range(3, 6)).run()
+    assert report.skipped == [3] and report.resumed_from == 3 and report.rendered == [4, 5]
+    for name in frames_in(tmp_path / "op"):
+        assert (tmp_path / "op" / name).read_bytes() == (tmp_path / "esc" / name).read_bytes()
