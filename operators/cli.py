@@ -161,7 +161,7 @@ def _check_range(settings, flag, value):
 
 
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",
-                 "photons", "vbnl_samples", "elimination")
+                 "photons", "vbnl_samples", "elimination", "smc_replacements", "smc_warmup")
 
 
 def cmd_reference(args) -> int:
@@ -267,6 +267,8 @@ def _render_flags(r) -> None:
     r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel")
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
     r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
+    r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
+    r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
 
 

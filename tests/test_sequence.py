@@ -6,6 +6,7 @@ from conftest import plane_scene
 from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import PointLight
 from vpl_addon.methods import METHODS, MethodSettings
+from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.vbnl import VBNLSettings
 from vpl_addon.motion import Motion, Snapshot
 from vpl_addon.render import RenderSettings, render
@@ -25,7 +26,8 @@ def lamp_scene(light_at=(0, 0.5, 1), wall_shift=0.0):
 
 def settings(method, seed=0):
     return RenderSettings(samples=2, light_samples=1, method=method, seed=seed, passes=("Combined", "Diffuse Indirect"),
-                          placement=MethodSettings(vpls=128, vbnl=VBNLSettings(photons=4096)),
+                          placement=MethodSettings(vpls=128, vbnl=VBNLSettings(photons=4096),
+                                                   smc=SMCSettings(warmup=3, radiosity_samples=4, camera_points=256)),
                           gather=GatherSettings(interleave=2))
 
 
@@ -53,9 +55,11 @@ def test_a_static_sequence_traces_no_light_paths_after_frame_one(method):
     frame 1's within the noise of the per-frame seed."""
     state = SequenceState(method)
     results = [render(lamp_scene(), settings(method, frame_seed(0, f)), sequence=state) for f in (1, 2, 3)]
-    assert results[0].info["light_paths"] > 0 and not results[0].info.get("reused")
+    first_cost = results[0].info["light_paths"] or results[0].info.get("sampling_rays", 0)
+    assert first_cost > 0 and not results[0].info.get("reused")
     for later in results[1:]:
         assert later.info["light_paths"] == 0 and later.info.get("reused")
+        assert later.info.get("sampling_rays", 0) == 0
     assert state.bvh_builds == 1
     first = results[0].passes["Diffuse Indirect"]
     for later in results[1:]:
