@@ -48,6 +48,7 @@ extension: $(STAMP) $(WHEELS)
 examples: $(STAMP)
 	$(BIN)/python example_blends/make_examples.py
 	$(BIN)/python example_blends/make_corridor.py
+	$(BIN)/python example_blends/make_sequences.py
 
 # Tracer throughput, then time against error of every method and Cycles on every example scene, with the scaling
 # runs (12.6 minutes measured on 2 cores before vbnl joined; about 16 with it); results in out/bench/ (bench.csv, <scene>.png, summary.txt, scaling.csv).

@@ -46,7 +46,7 @@ def tally(scene_name: str, result) -> int:
 def budget(vpls: int) -> MethodSettings:
     """A light budget with vbnl's photons and gather samples cut to the stress suite's scale."""
     return MethodSettings(vpls=vpls, vbnl=VBNLSettings(photons=4096, sampling=SamplingSettings(samples=2)),
-                          smc=SMCSettings(warmup=2, radiosity_samples=2, camera_points=256))
+                          smc=SMCSettings(warmup=8, radiosity_samples=4, camera_points=256))
 
 
 def small_settings(method: str, **overrides) -> RenderSettings:

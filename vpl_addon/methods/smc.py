@@ -57,9 +57,13 @@ class SMCSettings:
     # their area: the Cornell box comes out a third too bright with "knn" (bench/README.md)
     area: str = "voronoi"
     area_frames: int = 16
+    # k of the hits' kNN areas: k = 1 is unbiased for uniformly random points (E[pi r_1^2] = 1 / density) and the
+    # least hurt by corners and edges; its noise averages out over the ~16 hits per VPL and ``area_frames``
+    area_k: int = 1
 
     def __post_init__(self):
-        for name in ("replacements", "candidate_ratio", "radiosity_samples", "camera_points", "resampling_k"):
+        for name in ("replacements", "candidate_ratio", "radiosity_samples", "camera_points", "resampling_k",
+                     "area_k", "area_frames"):
             if getattr(self, name) < 1:
                 raise ValueError(f"smc {name.replace('_', ' ')} must be at least 1 (got {getattr(self, name)})")
         if self.warmup < 0 or self.visibility_rays < 0 or self.visibility_iterations < 0:
@@ -108,8 +112,8 @@ def _inside_boxes(points, boxes, margin):
 
 
 def _candidates(context, s: SMCSettings, points: Surface, count: int):
-    """Lines 5-6: hits of random rays from the directly visible points, resampled to about uniform area density;
-    (candidate surface, index of the point each came from)."""
+    """Lines 5-6: hits of random rays from the directly visible points, resampled to about uniform area density:
+    (candidate surface, index of the point each came from, (every hit's position, the area it stands for))."""
     rng = context.rng
     origins = rng.integers(0, len(points), s.candidate_ratio * count)
     hits, source, _, _ = diffuse_bounce(context.scene, context.tracer, points.take(origins), rng)
@@ -118,7 +122,10 @@ def _candidates(context, s: SMCSettings, points: Surface, count: int):
     k = min(s.resampling_k, max(len(hits) - 1, 1))
     r = knn_radius(hits.position, hits.position, k, exclude_self=True)
     weight = np.where(np.isfinite(r), r * r, 0.0)
-    area = np.pi * weight / k  # 1 / (M p) of each of the M hits: the area it stands for
+    k_area = min(s.area_k, max(len(hits) - 1, 1))
+    if k_area != k:
+        r = knn_radius(hits.position, hits.position, k_area, exclude_self=True)
+    area = np.where(np.isfinite(r), np.pi * r * r / k_area, 0.0)  # 1 / (M p) per hit: the area it stands for
     if not (weight.sum() > 0):
         weight = np.ones(len(hits))
     take = min(count, int((weight > 0).sum()))
