@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import time
@@ -58,6 +59,7 @@ def main(argv=None):
     results = {}
     for method in args.methods.split(","):
         folder = os.path.join(args.out, f"{stem}_{method}_{args.vpls}")
+        shutil.rmtree(folder, ignore_errors=True)  # a fresh bake (the same settings would resume the old one)
         t0 = time.perf_counter()
         log = cli("bake", args.scene, "--frames", args.frames, "-o", folder, "--method", method, "--vpls", args.vpls,
                   "--samples", args.samples, "--light-samples", args.light_samples, "--overwrite",

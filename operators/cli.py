@@ -141,6 +141,8 @@ def _prepare_scene(args):
         settings.filter = False
     if args.no_path_extension:
         settings.path_extension = False
+    if getattr(args, "no_path_reuse", False):
+        settings.path_reuse = False
     if args.percentage is not None:
         scene.render.resolution_percentage = args.percentage
     for layer in scene.view_layers:
@@ -267,6 +269,8 @@ def _render_flags(r) -> None:
     r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel")
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
     r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
+    r.add_argument("--no-path-reuse", action="store_true",
+                   help="ir in a sequence: trace every light path again when an object moved (no path verification)")
     r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
     r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")

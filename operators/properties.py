@@ -79,6 +79,10 @@ class VPLGISettings(bpy.types.PropertyGroup):
     smc_warmup: bpy.props.IntProperty(
         name="Warm-up Iterations", default=_SMC.warmup, min=0, soft_max=1000,
         description="Sequential Monte Carlo: iterations run before the first frame of a (cold) sequence")
+    path_reuse: bpy.props.BoolProperty(
+        name="Path Reuse", default=_PLACE.path_reuse,
+        description="In animations, keep light paths between frames and re-trace only those that moving objects "
+                    "cut (Instant Radiosity)")
     bake_directory: bpy.props.StringProperty(
         name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
         description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
@@ -89,7 +93,7 @@ class VPLGISettings(bpy.types.PropertyGroup):
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               method=self.method, indirect_samples=self.indirect_samples,
-                              placement=MethodSettings(vpls=self.vpls, smc=replace(
+                              placement=MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse, smc=replace(
                                   _SMC, replacements=self.smc_replacements, warmup=self.smc_warmup),
                                   vbnl=VBNLSettings(
                                   photons=self.photons, elimination=self.elimination,

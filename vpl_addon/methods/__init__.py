@@ -31,6 +31,8 @@ class MethodSettings:
     bidir: bidir.BidirSettings = field(default_factory=bidir.BidirSettings)
     vbnl: vbnl.VBNLSettings = field(default_factory=vbnl.VBNLSettings)
     smc: smc.SMCSettings = field(default_factory=smc.SMCSettings)
+    # in a sequence, keep light paths between frames and re-trace only those that moved objects cut (Moreau et al.)
+    path_reuse: bool = True
 
 
 def place(name: str, context: MethodContext, settings: MethodSettings):
