@@ -207,6 +207,7 @@ class Bake:
                 info = stats.get("info", {})
                 report.rendered.append(frame)
                 report.frames.append({"frame": frame, "light_paths": info.get("light_paths"),
+                                      "light_path_rays": info.get("light_path_rays"),
                                       "reused": bool(info.get("reused")), "rays": stats.get("rays"),
                                       "bvh_builds": state.bvh_builds,
                                       "seconds": sum(stats.get("seconds", {}).values())})

@@ -106,7 +106,8 @@ def cmd_bake(args) -> int:
     def progress(fraction, text):
         entry = bake.report.frames[-1] if bake.report.frames else None
         if entry is not None:
-            print(f"{text}: {entry['light_paths'] if entry['light_paths'] is not None else '-'} light paths"
+            traced = f" ({entry['light_path_rays']} rays)" if entry.get("light_path_rays") is not None else ""
+            print(f"{text}: {entry['light_paths'] if entry['light_paths'] is not None else '-'} light paths{traced}"
                   f"{' (reused)' if entry['reused'] else ''}, {(entry['rays'] or 0) / 1e6:.2f} M rays, "
                   f"{entry['seconds']:.2f} s", flush=True)
         return True
