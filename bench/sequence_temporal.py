@@ -48,6 +48,8 @@ def main(argv=None):
     p.add_argument("--samples", type=int, default=4)
     p.add_argument("--light-samples", type=int, default=4)
     p.add_argument("--reference-samples", type=int, default=256)
+    p.add_argument("--percentage", type=int, help="resolution percentage of references and bakes (default: the "
+                                                   "scene's)")
     p.add_argument("--extra", default="", help="more bake flags, e.g. '--smc-warmup 20'")
     p.add_argument("--out", default=os.path.join(ROOT, "out", "sequence"))
     args = p.parse_args(argv)
@@ -59,7 +61,8 @@ def main(argv=None):
     for frame in range(first, last + 1):
         target = os.path.join(refs, f"frame_{frame:04d}.exr")
         if not os.path.exists(target):
-            cli("reference", args.scene, "--frame", frame, "--samples", args.reference_samples, "-o", target)
+            cli("reference", args.scene, "--frame", frame, "--samples", args.reference_samples, "-o", target,
+                *(["--percentage", args.percentage] if args.percentage else []))
     print(f"references: {time.perf_counter() - t0:.0f} s", flush=True)
 
     from vpl_addon.compare import compare_sequences
@@ -73,7 +76,7 @@ def main(argv=None):
         t0 = time.perf_counter()
         log = cli("bake", args.scene, "--frames", args.frames, "-o", folder, "--method", method, "--vpls", args.vpls,
                   "--samples", args.samples, "--light-samples", args.light_samples, "--overwrite",
-                  *flags, *args.extra.split())
+                  *flags, *args.extra.split(), *(["--percentage", args.percentage] if args.percentage else []))
         seconds = time.perf_counter() - t0
         result = compare_sequences(folder, refs)["Diffuse Indirect"]
         result["bake_seconds"] = round(seconds, 1)
@@ -83,7 +86,8 @@ def main(argv=None):
         print(f"{label}: {seconds:.0f} s", flush=True)
     with open(os.path.join(args.out, f"{stem}_results.json"), "w") as f:
         json.dump(results, f, indent=1)
-    print(f"\n{stem}, frames {args.frames}, {args.vpls} VPLs, {args.samples} spp, Cycles {args.reference_samples} "
+    print(f"\n{stem}, frames {args.frames}, {args.percentage or 100} %, {args.vpls} VPLs, {args.samples} spp, "
+          f"Cycles {args.reference_samples} "
           f"spp per frame (Diffuse Indirect, Reinhard tone mapped luminance)\n")
     print("| run | mean abs E, tracked | mean abs E', tracked | mean abs E, frame | mean abs E', frame | "
           "rMAE (mean of frames) | light-path rays per frame, frames 2.. | bake s |")

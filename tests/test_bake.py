@@ -143,3 +143,25 @@ def test_bake_operator_renders_the_frame_range_and_stopping_keeps_what_is_done(e
     assert report.skipped == [3] and report.resumed_from == 3 and report.rendered == [4, 5]
     for name in frames_in(tmp_path / "op"):
         assert (tmp_path / "op" / name).read_bytes() == (tmp_path / "esc" / name).read_bytes()
+
+
+def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path):
+    """smc (its VPL set) and ir (its kept light paths, verified against the moving block) resume from the saved
+    state exactly where an uninterrupted bake would be."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    for method in ("smc", "ir"):
+        scene = _small_scene(bpy, engine, "seq_moving_object")
+        scene.vpl_gi.method, scene.vpl_gi.smc_warmup = method, 3
+        whole = bake.Bake(scene, str(tmp_path / f"{method}_whole"), range(1, 4)).run()
+        assert whole.rendered == [1, 2, 3]
+        if method == "ir":
+            paths = [e["light_paths"] for e in whole.frames]
+            assert 0 < paths[1] < paths[0] and 0 < paths[2] < paths[0]  # only the paths the block cuts
+        folder = str(tmp_path / f"{method}_resumed")
+        bake.Bake(scene, folder, range(1, 4)).run(progress=lambda fraction, text: False)
+        report = bake.Bake(scene, folder, range(1, 4)).run()
+        assert report.resumed_from == 1 and report.rendered == [2, 3]
+        for name in frames_in(tmp_path / f"{method}_whole"):
+            assert (tmp_path / f"{method}_whole" / name).read_bytes() == (tmp_path / f"{method}_resumed" /
+                                                                         name).read_bytes(), (method, name)
