@@ -99,3 +99,20 @@ def test_a_saved_state_renders_the_next_frame_exactly_as_the_live_one():
     saved.close()
     with pytest.raises(ValueError):
         SequenceState.loads(__import__("pickle").dumps({"not": "a state"}))
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_a_block_moving_through_the_lights_renders_finite_light_in_every_frame(method):
+    """A block slides through the room, over the floor's VPLs: every method's carried
+    state gives finite, non-negative light in every frame and follows the change."""
+    from test_path_verification import room_with_block
+    state = SequenceState(method)
+    images = []
+    for frame, offset in enumerate((-0.6, 0.0, 0.6), start=1):
+        scene = room_with_block(offset)
+        result = render(scene, settings(method, frame_seed(0, frame)), sequence=state)
+        image = result.passes["Diffuse Indirect"]
+        assert np.isfinite(image).all() and (image >= 0).all()
+        images.append(image)
+    assert not np.array_equal(images[0], images[2])
+    state.close()
