@@ -189,9 +189,10 @@ def iterate(state: SMCState, context, settings, motion=None) -> None:
         new = cand.take(best)
         state.surface = new if state.surface is None else Surface.concat([state.surface, new])
         # the radiosity that lights the image comes from the VPL's other stream: the one it was chosen by is
-        # biased upward by the choice (a candidate wins on a lucky estimate)
-        state.radiosity = np.concatenate([state.radiosity, estimate_radiosity(
-            scene, tracer, lights, new, seeds[best], s.radiosity_samples, bounces, RENDERING)])
+        # biased upward by the choice (a candidate wins on a lucky estimate); estimated below if all are stale
+        state.radiosity = np.concatenate([state.radiosity, np.zeros((len(best), 3)) if state.stale_radiosity else
+                                          estimate_radiosity(scene, tracer, lights, new, seeds[best],
+                                                             s.radiosity_samples, bounces, RENDERING)])
         state.seed = np.concatenate([state.seed, seeds[best]])
         state.mailbox = (np.concatenate([state.mailbox[0], points.position[source[best]]]),
                          np.concatenate([state.mailbox[1], points.geometric_normal[source[best]]]))
