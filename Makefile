@@ -48,6 +48,7 @@ extension: $(STAMP) $(WHEELS)
 examples: $(STAMP)
 	$(BIN)/python example_blends/make_examples.py
 	$(BIN)/python example_blends/make_corridor.py
+	$(BIN)/python example_blends/make_metal.py
 	$(BIN)/python example_blends/make_sequences.py
 
 # Tracer throughput, then time against error of every method and Cycles on every example scene, with the scaling

@@ -22,6 +22,9 @@ PASS_TOGGLES = (
     (P.DIFFUSE_INDIRECT, "use_pass_diffuse_indirect", 3, "RGB"),
     (P.DIFFUSE_COLOR, "use_pass_diffuse_color", 3, "RGB"),
     (P.EMIT, "use_pass_emit", 3, "RGB"),
+    (P.GLOSSY_DIRECT, "use_pass_glossy_direct", 3, "RGB"),
+    (P.GLOSSY_INDIRECT, "use_pass_glossy_indirect", 3, "RGB"),
+    (P.GLOSSY_COLOR, "use_pass_glossy_color", 3, "RGB"),
 )
 
 # Messages of the last render, for callers that cannot see the UI (the command line, tests).

@@ -93,6 +93,7 @@ class _MaterialTable:
             row["base_color"] = tuple(inputs["Base Color"].default_value)[:3]
             row["roughness"] = inputs["Roughness"].default_value
             row["metallic"] = inputs["Metallic"].default_value
+            row["specular_tint"] = tuple(inputs["Specular Tint"].default_value)[:3]
             strength = inputs["Emission Strength"].default_value
             row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
             link = inputs["Base Color"].links[0] if inputs["Base Color"].is_linked else None
@@ -102,7 +103,7 @@ class _MaterialTable:
                 else:
                     self.warnings.append(f"material {material.name!r}: Base Color input from a "
                                          f"{link.from_node.bl_label!r} node is not supported; using its value")
-            for name in ("Roughness", "Metallic", "Emission Color", "Emission Strength"):
+            for name in ("Roughness", "Metallic", "Specular Tint", "Emission Color", "Emission Strength"):
                 if inputs[name].is_linked:
                     self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; "
                                          f"using its value")

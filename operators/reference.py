@@ -16,10 +16,14 @@ import bpy
 
 from ..vpl_addon import passes as P
 from ..vpl_addon.exr import read_passes, write_passes
+from .engine import PASS_TOGGLES
 from .output import render_to
 
 HEADER_KEY = "vplReference"
 KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT)
+# Kept too, but not part of the hash: a reference made before they were kept stays valid for the passes above
+# (the example scenes made before glossy materials have none).
+GLOSSY_PASSES = P.GLOSSY
 SEED = 0
 
 
@@ -45,7 +49,7 @@ def stored_info(path: str) -> dict:
 
 def configure_cycles(scene, samples: int) -> None:
     """Cycles on the CPU, unbiased and repeatable: no denoising, clamping, glossy filter, light threshold or
-    adaptive sampling; fixed seed; transparent film (alpha = coverage); every diffuse pass on."""
+    adaptive sampling; fixed seed; transparent film (alpha = coverage); every diffuse and glossy pass on."""
     scene.render.engine = "CYCLES"
     c = scene.cycles
     c.device = "CPU"
@@ -60,8 +64,7 @@ def configure_cycles(scene, samples: int) -> None:
     c.use_animated_seed = False
     scene.render.film_transparent = True
     for layer in scene.view_layers:
-        for toggle in ("use_pass_diffuse_direct", "use_pass_diffuse_indirect", "use_pass_diffuse_color",
-                       "use_pass_emit"):
+        for _, toggle, _, _ in PASS_TOGGLES:
             setattr(layer, toggle, True)
 
 
@@ -89,7 +92,7 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
     info = {"hash": digest, "samples": samples, "frame": frame, "percentage": percentage,
             "seconds": round(seconds, 2),
             "blend": os.path.basename(blend_path), "blender": bpy.app.version_string}
-    kept = {name: images[name] for name in KEPT_PASSES if name in images}
+    kept = {name: images[name] for name in KEPT_PASSES + GLOSSY_PASSES if name in images}
     write_passes(out_path, kept, {HEADER_KEY: json.dumps(info, sort_keys=True)}, half=True)
     if cached:
         os.makedirs(cache_dir, exist_ok=True)

@@ -29,8 +29,10 @@ def test_knn_density_of_a_grid_and_the_k_of_eq_8():
 def _points(scene, xy, z=0.0):
     n = len(xy)
     up = np.tile([0.0, 0.0, 1.0], (n, 1))
-    return Surface(np.column_stack([xy, np.full(n, z)]), up, up, np.zeros(n, np.int64), np.zeros(n, np.int32),
-                   np.full((n, 3), 0.5), np.ones(n), np.zeros(n), np.zeros((n, 3)))
+    return Surface(position=np.column_stack([xy, np.full(n, z)]), geometric_normal=up, shading_normal=up,
+                   prim=np.zeros(n, np.int64), material=np.zeros(n, np.int32), albedo=np.full((n, 3), 0.5),
+                   roughness=np.ones(n), metallic=np.zeros(n), emission=np.zeros((n, 3)), specular=np.zeros((n, 3)),
+                   edge=np.zeros((n, 3)), incident=-up)
 
 
 def test_radiosity_with_one_vertex_is_the_direct_light_and_each_vpl_keeps_its_numbers():

@@ -1,4 +1,4 @@
-"""Direct diffuse lighting by next-event estimation: Cycles' ``Diffuse Direct`` pass.
+"""Direct lighting by next-event estimation: Cycles' ``Diffuse Direct`` and ``Glossy Direct`` passes.
 
 For each shading point, ``samples`` light samples: a light chosen in proportion to its power (``LightSet``), a point
 or direction on it, one shadow ray. The result is the outgoing radiance of a white Lambertian surface,
@@ -13,22 +13,31 @@ from __future__ import annotations
 
 import numpy as np
 
+from .microfacet import GlossyLobe
 from .sampling import dot, group_sum
 
 RAYS_PER_BATCH = 1 << 20
 
 
-def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generator,
-                   numbers: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
-    """(K,3) direct diffuse radiance at each point of a ``Surface``, averaged over ``samples`` light samples.
+def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """(K,3) direct diffuse radiance of a white Lambertian surface at each point (``direct_light`` without the
+    glossy lobe)."""
+    return direct_light(surface, lights, tracer, samples, rng)[0]
+
+
+def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator,
+                 numbers: tuple[np.ndarray, ...] | None = None, glossy: GlossyLobe | None = None):
+    """(diffuse (K,3), glossy (K,3)): at each point of a ``Surface``, averaged over ``samples`` light samples, the
+    direct radiance a white Lambertian surface reflects and, if ``glossy`` is given, the radiance its metallic lobe
+    reflects toward the viewer (zero otherwise).
 
     Each light sample is one sample of a local light (chosen by power) plus, if the world emits, one
     cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples) or None: the uniform
     numbers for the local and the world samples, instead of independent ones."""
     k = len(surface)
-    out = np.zeros((k, 3))
+    out, shine = np.zeros((k, 3)), np.zeros((k, 3))
     if k == 0 or len(lights) == 0 or samples <= 0:
-        return out
+        return out, shine
     p = surface.position
     ng = surface.geometric_normal
     ns = surface.shading_normal
@@ -42,15 +51,16 @@ def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generat
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
             wi, dist, weight, target_n = lights.sample_incident(p[idx], ns[idx], strata, u1, u2)
-            _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer)
+            _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer, glossy)
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(p[idx], ns[idx], w1, w2)
-            _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, np.zeros_like(wi), tracer)
-    return out / samples
+            _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, np.zeros_like(wi), tracer, glossy)
+    return out / samples, shine / samples
 
 
-def _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer):
-    """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point."""
+def _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer, glossy):
+    """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
+    weight * (f cos of the glossy lobe) * V."""
     cos = dot(ns[idx], wi)
     ok = (cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (weight.max(axis=1) > 0.0) & np.isfinite(weight).all(axis=1)
     sel = np.nonzero(ok)[0]
@@ -59,3 +69,7 @@ def _accumulate(out, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer)
     vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], target_n[sel])
     contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
     out[lo:hi] += group_sum(idx[sel] - lo, contrib, hi - lo)
+    if glossy is not None:
+        lit = np.nonzero((vis > 0.0) & (glossy.weight[idx[sel]].max(axis=1) > 0.0))[0]
+        value, _ = glossy.evaluate(wi[sel[lit]], idx[sel[lit]])
+        shine[lo:hi] += group_sum(idx[sel[lit]] - lo, weight[sel[lit]] * (value * vis[lit, None]), hi - lo)

@@ -1,8 +1,10 @@
 """Light paths: photons from the lights with a VPL left at every diffuse bounce (Keller, Instant Radiosity 1997).
 
 Paths start with ``LightSet.emit`` (lights chosen in proportion to power, or by a given distribution such as the
-camera-driven one of Segovia et al. sec. 4.1), bounce with cosine-weighted directions, and end by Russian roulette
-(survival probability = the largest albedo channel) or at the bounce limit. The random numbers of a batch are
+camera-driven one of Segovia et al. sec. 4.1), bounce with cosine-weighted directions off the diffuse part or by
+visible normals off a metallic lobe (``microfacet``), and end by Russian roulette (the diffuse lobe is chosen with
+probability its largest albedo channel, the metallic one with its largest Glossy Color channel) or at the bounce
+limit. The random numbers of a batch are
 Latin-hypercube stratified over its paths. The VPL at a bounce carries the path's
 incident power times albedo / pi; divided by the number of paths (``trace_until``), the whole set estimates the
 indirect light.
@@ -11,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .microfacet import GlossyLobe
 from .sampling import LatinHypercube, cosine_hemisphere, dot
 from .surface import shade
 from .virtual_lights import STANDARD, VirtualLights
@@ -27,6 +30,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
     if len(lights) == 0 or max_bounces <= 0 or (count <= 0 if start is None else len(start[0]) == 0):
         return VirtualLights.empty()
     rng = LatinHypercube(rng)
+    glossy = scene.materials.glossy
     if start is None:
         origins, dirs, power = lights.emit(count, rng, light_prob)
         path, first_bounce = np.arange(first_path, first_path + count), 1
@@ -42,18 +46,34 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         rows = np.nonzero(hits.hit)[0]
         surf = shade(scene, dirs, hits, rows)
         incident = power[rows]
-        found.append(VirtualLights(surf.position, surf.shading_normal, incident * surf.albedo / np.pi,
-                                   np.full(len(rows), bounce, np.int32), np.full(len(rows), STANDARD, np.int8),
-                                   path[rows]))
+        lit = np.nonzero(surf.albedo.max(axis=1) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
+        found.append(VirtualLights(surf.position[lit], surf.shading_normal[lit],
+                                   incident[lit] * surf.albedo[lit] / np.pi, np.full(len(lit), bounce, np.int32),
+                                   np.full(len(lit), STANDARD, np.int8), path[rows][lit]))
         if bounce == max_bounces:
             break
-        survive = np.clip(surf.albedo.max(axis=1), 0.0, 1.0)
-        keep = rng.random(len(rows)) < survive
+        choose_diffuse = np.clip(surf.albedo.max(axis=1), 0.0, 1.0)
+        u = rng.random(len(rows))
+        keep = u < choose_diffuse
         new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
-        leaves = dot(new_dirs, surf.geometric_normal[keep]) > 0.0  # below the true surface: absorbed
-        sel = np.nonzero(keep)[0][leaves]
+        weight = surf.albedo[keep] / choose_diffuse[keep, None]
+        if glossy:
+            shiny = np.nonzero(~keep & (surf.metallic > 0.0))[0]
+            lobe = GlossyLobe.of(surf.take(shiny))
+            choose_glossy = np.minimum(lobe.color.max(axis=1), 1.0 - choose_diffuse[shiny])
+            shiny_keep = u[shiny] < choose_diffuse[shiny] + choose_glossy
+            lobe = lobe.take(shiny_keep)
+            dirs_g, f_cos_pdf, _ = lobe.sample(rng.random(shiny_keep.sum()), rng.random(shiny_keep.sum()),
+                                               np.arange(shiny_keep.sum()))
+            bouncing = np.concatenate([np.nonzero(keep)[0], shiny[shiny_keep]])
+            new_dirs = np.concatenate([new_dirs, dirs_g])
+            weight = np.concatenate([weight, f_cos_pdf / choose_glossy[shiny_keep, None]])
+        else:
+            bouncing = np.nonzero(keep)[0]
+        leaves = (dot(new_dirs, surf.geometric_normal[bouncing]) > 0.0) & (weight.max(axis=1) > 0.0)
+        sel = bouncing[leaves]  # below the true surface: absorbed
         dirs = new_dirs[leaves]
-        power = incident[sel] * surf.albedo[sel] / survive[sel, None]
+        power = incident[sel] * weight[leaves]
         origins = tracer.offset_origin(surf.position[sel], surf.geometric_normal[sel])
         path = path[rows][sel]
     return VirtualLights.concat(found)

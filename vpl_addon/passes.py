@@ -3,7 +3,9 @@
 ``Diffuse Direct`` / ``Diffuse Indirect``: light reflected by a white diffuse surface at the primary hit (NOT
 multiplied by albedo); ``Diffuse Color``: the albedo; ``Emit``: emitted radiance; ``Combined``: RGBA with alpha the
 geometry coverage of a transparent film. ``(Diffuse Direct + Diffuse Indirect) * Diffuse Color + Emit`` is the
-diffuse part of ``Combined``.
+diffuse part of ``Combined``. ``Glossy Direct`` / ``Glossy Indirect``: light reflected by the glossy (metallic GGX)
+lobe at the primary hit divided by ``Glossy Color``, the lobe's directional albedo as Cycles estimates it, so
+``(Glossy Direct + Glossy Indirect) * Glossy Color`` is the glossy part of ``Combined``.
 """
 from __future__ import annotations
 
@@ -14,8 +16,13 @@ DIFFUSE_DIRECT = "Diffuse Direct"
 DIFFUSE_INDIRECT = "Diffuse Indirect"
 DIFFUSE_COLOR = "Diffuse Color"
 EMIT = "Emit"
+GLOSSY_DIRECT = "Glossy Direct"
+GLOSSY_INDIRECT = "Glossy Indirect"
+GLOSSY_COLOR = "Glossy Color"
 
-CHANNELS = {COMBINED: 4, DIFFUSE_DIRECT: 3, DIFFUSE_INDIRECT: 3, DIFFUSE_COLOR: 3, EMIT: 3}
+CHANNELS = {COMBINED: 4, DIFFUSE_DIRECT: 3, DIFFUSE_INDIRECT: 3, DIFFUSE_COLOR: 3, EMIT: 3,
+            GLOSSY_DIRECT: 3, GLOSSY_INDIRECT: 3, GLOSSY_COLOR: 3}
+GLOSSY = (GLOSSY_DIRECT, GLOSSY_INDIRECT, GLOSSY_COLOR)
 ALL = tuple(CHANNELS)
 
 

@@ -14,8 +14,10 @@ the indicator of the sphere; the number of covering lights at a point varies by 
 reconstruction with the same support, the same sampling (eq. 4-5) and the same total power, and the catchment
 keeps edges and corners unbiased where lights have less surface around them (a density estimate from the
 candidates' neighbours was 3-5 % off in the Cornell box, one way or the other depending on whether neighbours
-across a corner counted). Lights on diffuse surfaces keep a
-single value; directional emission profiles (16x16 octahedral maps) are for glossy surfaces.
+across a corner counted). Lights hold
+diffusely reflected light only and keep a single value each: the paper's directional emission profiles (16x16
+octahedral maps) for lights on glossy surfaces are replaced by extending camera paths through metallic lobes
+(``virtual_light_sampling``).
 
 The lights covering many points at once come from one scipy k-d tree query of the ``neighbours`` nearest light
 centres, kept where the distance is below that light's radius.

@@ -5,7 +5,11 @@ Pixels are processed in blocks, concurrently on all cores, so memory stays flat 
 count; each block draws its random numbers from ``(seed, block)`` so a render is deterministic. ``progress(fraction,
 text)`` is called after each block and may return False to cancel (ESC in Blender), which raises ``Cancelled``.
 Work a pass does not need is skipped: no lights, no shadow rays and no VPLs; no ``Diffuse Indirect`` requested (or
-method "none"), no VPLs.
+method "none"), no VPLs; no metallic material, nothing glossy.
+
+Passes divided by a colour (``Glossy Direct`` / ``Glossy Indirect`` by ``Glossy Color``) are, as in Cycles, the sum
+of the pixel's light over the sum of its colour. The diffuse passes hold light only where the surface has a diffuse
+colour (zero on pure metal, as in Cycles).
 """
 from __future__ import annotations
 
@@ -19,12 +23,13 @@ import numpy as np
 
 from . import passes as P
 from .bilateral import deinterleave
-from .direct import diffuse_direct
+from .direct import direct_light
 from .gather import GatherSettings, clamp_distance, gather
 from .gbuffer import GBuffer
 from .sampling import group_sum, stratified_2d
 from .lights import LightSet
 from .methods import METHODS, MethodContext, MethodSettings, place
+from .microfacet import GlossyLobe
 from .tracer import Tracer
 
 
@@ -70,6 +75,11 @@ class RenderResult:
     info: dict = field(default_factory=dict)  # what the method reports (paths traced, reverse share, ...)
 
 
+def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
+    """Light over colour per channel, zero where the colour is (Cycles' pass division)."""
+    return np.where(color > 0.0, light / np.where(color > 0.0, color, 1.0), 0.0)
+
+
 def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
     """World-space width of one pixel at the given points (perspective: grows with distance)."""
     size = (camera.window[1] - camera.window[0]) / camera.width
@@ -97,12 +107,16 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     result.seconds["build"] = time.perf_counter() - t0
 
     want = set(settings.passes) | {P.COMBINED}
-    need_direct = bool({P.DIFFUSE_DIRECT, P.COMBINED} & want) and len(lights) > 0
+    need_glossy = scene.materials.glossy and bool((set(P.GLOSSY) | {P.COMBINED}) & want)
+    need_direct = bool({P.DIFFUSE_DIRECT, P.GLOSSY_DIRECT, P.COMBINED} & want) and len(lights) > 0
     bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
     need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
         settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
     vpls, d_min, permutation, context = None, 0.0, None, None
     sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
+    if need_glossy and need_indirect and sampled is None:
+        result.warnings.append(f"method {settings.method!r} has no glossy transport: metallic surfaces reflect "
+                               f"direct light only (Glossy Indirect is black); method 'vbnl' has it")
     try:
         if need_indirect:
             t0 = time.perf_counter()
@@ -118,7 +132,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
 
         images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want | {P.DIFFUSE_COLOR}}
         indirect = np.zeros((w * h, 3))
+        shine, shine_color = np.zeros((w * h, 3)), np.zeros((w * h, 3))  # glossy indirect light and its colour
         guide_position, guide_normal, guide_count = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros(w * h)
+        diffuse_seen = np.zeros(w * h, bool)
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
         cancelled = threading.Event()
@@ -139,6 +155,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
             surf = gbuf.surface
             guard("G-buffer", {P.DIFFUSE_COLOR: surf.albedo, P.EMIT: surf.emission})
+            lobe = GlossyLobe.of(surf) if need_glossy else None
+            diffuse = (surf.albedo.max(axis=1) > 0.0)[:, None]  # the diffuse passes see only diffuse surfaces
             marks["gbuffer"] = time.perf_counter()
             if need_direct:
                 # the light samples of a pixel: scrambled nets, dealt to its camera samples in random order
@@ -153,13 +171,15 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     u, v = stratified_2d(len(pixels), count, rng)
                     deal = np.argsort(rng.random((len(pixels), count)), axis=1)
                     numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
-                direct = diffuse_direct(surf, lights, tracer, settings.light_samples, rng, numbers=tuple(numbers))
-                guard("direct light", {P.DIFFUSE_DIRECT: direct})
+                direct, glossy = direct_light(surf, lights, tracer, settings.light_samples, rng,
+                                              numbers=tuple(numbers), glossy=lobe)
+                guard("direct light", {P.DIFFUSE_DIRECT: direct, P.GLOSSY_DIRECT: glossy})
             else:
-                direct = 0.0
+                direct, glossy = np.zeros_like(surf.albedo), np.zeros_like(surf.albedo)
             marks["direct"] = time.perf_counter()
             if need_indirect:
-                rows = np.nonzero(gbuf.sample % gbuf.spp < gather_spp)[0]
+                gathering = gbuf.sample % gbuf.spp < gather_spp
+                rows = np.nonzero(gathering & diffuse[:, 0])[0]
                 sub = surf.take(rows)
                 if sampled is None:
                     pix = gbuf.pixel_of_hit[rows]
@@ -169,17 +189,34 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     light = sampled(surf.take(np.repeat(rows, repeats)), vpls, context, settings.placement, rng)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
-                local = gbuf.sample[rows] // gbuf.spp
-                indirect[pixels] = group_sum(local, light, len(pixels)) / gather_spp
-                guide_position[pixels] = group_sum(local, sub.position, len(pixels))
-                guide_normal[pixels] = group_sum(local, sub.shading_normal, len(pixels))
+                if lobe is not None and sampled is not None:
+                    shiny = np.nonzero(gathering & (surf.metallic > 0.0))[0]
+                    many = np.repeat(shiny, repeats)
+                    reflected = sampled(surf.take(many), vpls, context, settings.placement, rng,
+                                        glossy=lobe.take(many))
+                    reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)
+                    guard("gather", {P.GLOSSY_INDIRECT: reflected})
+                    at = gbuf.sample[shiny] // gbuf.spp
+                    shine[pixels] = group_sum(at, reflected, len(pixels))
+                    shine_color[pixels] = group_sum(at, lobe.color[shiny], len(pixels))
+                indirect[pixels] = group_sum(gbuf.sample[rows] // gbuf.spp, light, len(pixels)) / gather_spp
+                diffuse_seen[pixels] = np.bincount(gbuf.sample[rows] // gbuf.spp, minlength=len(pixels)) > 0
+                guides = np.nonzero(gathering)[0]  # the filter's guides: what the gathering samples see
+                local = gbuf.sample[guides] // gbuf.spp
+                guide_position[pixels] = group_sum(local, surf.position[guides], len(pixels))
+                guide_normal[pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
                 guide_count[pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
-            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + surf.emission)
+            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission)
             images[P.COMBINED][pixels, 3] = gbuf.coverage
             images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo)
             if P.DIFFUSE_DIRECT in want:
-                images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(np.broadcast_to(direct, surf.albedo.shape))
+                images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(direct * diffuse)
+            if lobe is not None and want & {P.GLOSSY_DIRECT, P.GLOSSY_COLOR}:
+                color = gbuf.splat(lobe.color)
+                for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy), color))):
+                    if name in want:
+                        images[name][pixels] = image
             if P.EMIT in want:
                 images[P.EMIT][pixels] = gbuf.splat(surf.emission)
             return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
@@ -199,16 +236,24 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
 
     if need_indirect:
         t0 = time.perf_counter()
+        reflected = _divide(shine, shine_color)  # Glossy Indirect
         if settings.gather.filter and settings.gather.interleave > 1:
-            valid = guide_count > 0
             count = np.maximum(guide_count, 1)[:, None]
             position = guide_position / count
             normal = guide_normal / np.maximum(np.linalg.norm(guide_normal, axis=1, keepdims=True), 1e-300)
-            indirect = deinterleave(indirect.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
+
+            def smooth(image, valid):  # each lobe's light is filtered among the pixels that have that lobe
+                return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
                                     valid.reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
                                     settings.gather.interleave).reshape(-1, 3)
+            indirect = smooth(indirect, diffuse_seen)
             guard("filter", {P.DIFFUSE_INDIRECT: indirect})
-        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect
+            if need_glossy:
+                reflected = smooth(reflected, shine_color.max(axis=1) > 0.0)
+                guard("filter", {P.GLOSSY_INDIRECT: reflected})
+        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + reflected * shine_color / gather_spp
+        if P.GLOSSY_INDIRECT in want:
+            images[P.GLOSSY_INDIRECT] = reflected
         timing["filter"] = time.perf_counter() - t0
         result.info["vpls"] = len(vpls)
     if P.DIFFUSE_INDIRECT in want:

@@ -26,10 +26,12 @@ class Materials:
     metallic: np.ndarray  # (M,)
     emission: np.ndarray  # (M,3) emitted radiance, W/(m^2 sr): Emission Color x Strength
     texture: np.ndarray  # (M,) int index into Scene.textures of the base colour, -1 for none
+    specular_tint: np.ndarray  # (M,3) F82 tint of the metallic lobe (white: plain Schlick Fresnel)
 
     @staticmethod
     def make(rows: list[dict]) -> "Materials":
-        """Rows of {name, base_color, roughness, metallic, emission, texture}; missing keys take defaults."""
+        """Rows of {name, base_color, roughness, metallic, emission, texture, specular_tint}; missing keys take
+        defaults."""
         rows = [{"name": "VPL fallback grey"}] + list(rows)
 
         def col(key, default, dtype=np.float32):
@@ -42,12 +44,14 @@ class Materials:
             metallic=col("metallic", 0.0),
             emission=col("emission", (0.0, 0.0, 0.0)).reshape(-1, 3),
             texture=col("texture", -1, np.int32),
+            specular_tint=col("specular_tint", (1.0, 1.0, 1.0)).reshape(-1, 3),
         )
-        for a in (m.base_color, m.roughness, m.metallic, m.emission):
+        for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint):
             np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
         np.clip(m.base_color, 0.0, 1.0, out=m.base_color)
         np.clip(m.roughness, 0.0, 1.0, out=m.roughness)
         np.clip(m.metallic, 0.0, 1.0, out=m.metallic)
+        np.clip(m.specular_tint, 0.0, 1.0, out=m.specular_tint)
         np.maximum(m.emission, 0.0, out=m.emission)
         return m
 
@@ -55,6 +59,11 @@ class Materials:
     def diffuse_albedo(self) -> np.ndarray:
         """Albedo of the diffuse lobe: what Cycles' ``Diffuse Color`` pass holds (metals have none)."""
         return self.base_color * (1.0 - self.metallic)[:, None]
+
+    @property
+    def glossy(self) -> bool:
+        """Whether any material has a metallic (GGX) lobe: without one, nothing glossy is computed."""
+        return bool((self.metallic > 0.0).any())
 
 
 @dataclass

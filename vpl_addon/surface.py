@@ -9,6 +9,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from .microfacet import f82_b
 from .sampling import cosine_hemisphere, dot, normalize
 from .textures import sample_bilinear
 
@@ -22,8 +23,11 @@ class Surface:
     material: np.ndarray  # (K,)
     albedo: np.ndarray  # (K,3) diffuse albedo (base colour or texture x (1 - metallic))
     roughness: np.ndarray  # (K,)
-    metallic: np.ndarray  # (K,)
+    metallic: np.ndarray  # (K,) weight of the metallic GGX lobe (``microfacet``)
     emission: np.ndarray  # (K,3)
+    specular: np.ndarray  # (K,3) F0 of the metallic lobe: the base colour (or texture)
+    edge: np.ndarray  # (K,3) b of the F82-tint Fresnel (``microfacet.f82_b``)
+    incident: np.ndarray  # (K,3) unit direction of the ray that found the point (the viewer is at -incident)
 
     def __len__(self):
         return len(self.prim)
@@ -61,19 +65,27 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
             sel = tex_ids == t
             base[sel] = sample_bilinear(scene.textures[t], uv[sel])[:, :3]
     metallic = m.metallic[mat].astype(np.float64)
+    base = np.clip(base, 0.0, 1.0)
     return Surface(position=position, geometric_normal=ng, shading_normal=ns, prim=prim, material=mat,
-                   albedo=np.clip(base, 0.0, 1.0) * (1.0 - metallic)[:, None],
+                   albedo=base * (1.0 - metallic)[:, None],
                    roughness=m.roughness[mat].astype(np.float64), metallic=metallic,
-                   emission=m.emission[mat].astype(np.float64))
+                   emission=m.emission[mat].astype(np.float64), specular=base,
+                   edge=f82_b(base, m.specular_tint[mat].astype(np.float64)), incident=dirs[rows])
 
 
-def diffuse_bounce(scene, tracer, surface: Surface, rng: np.random.Generator):
-    """One cosine-weighted ray (the diffuse BSDF's sample) from every point of ``surface``, offset off it; rays
-    that would leave below the true surface are dropped. Returns (what the rays hit, the index of the point each
-    hit came from, the directions of all points, their cos theta)."""
-    dirs, cos = cosine_hemisphere(rng.random(len(surface)), rng.random(len(surface)), surface.shading_normal)
+def bounce(scene, tracer, surface: Surface, dirs: np.ndarray):
+    """Rays from the points of ``surface`` along ``dirs``, offset off it; rays that would leave below the true
+    surface are dropped. Returns (what the rays hit, the index of the point each hit came from)."""
     leave = np.nonzero(dot(dirs, surface.geometric_normal) > 0.0)[0]
     hits = tracer.intersect(tracer.offset_origin(surface.position[leave], surface.geometric_normal[leave]),
                             dirs[leave])
     rows = np.nonzero(hits.hit)[0]
-    return shade(scene, dirs[leave], hits, rows), leave[rows], dirs, cos
+    return shade(scene, dirs[leave], hits, rows), leave[rows]
+
+
+def diffuse_bounce(scene, tracer, surface: Surface, rng: np.random.Generator):
+    """One cosine-weighted ray (the diffuse BSDF's sample) from every point of ``surface`` (``bounce``). Returns
+    (what the rays hit, the index of the point each hit came from, the directions of all points, their cos
+    theta)."""
+    dirs, cos = cosine_hemisphere(rng.random(len(surface)), rng.random(len(surface)), surface.shading_normal)
+    return (*bounce(scene, tracer, surface, dirs), dirs, cos)

@@ -5,16 +5,16 @@ VPL [...] by initializing the pseudo-random number used by path tracer with a VP
 
 Each VPL y draws every random number of its paths from its own counter-based stream (a hash of its seed), in a
 fixed layout per (sample, vertex), so re-estimating an unchanged VPL in an unchanged scene gives the same value and a
-moving light changes it smoothly. Paths use the engine's one light sampler (``direct.diffuse_direct``) at every
-vertex and its one diffuse bounce (``surface.diffuse_bounce``), fed the VPL's numbers through ``PresetNumbers``;
-they end at the scene's bounce limit (the VPL is the first diffuse vertex) or by Russian roulette on the albedo.
+moving light changes it smoothly. Paths use the engine's one light sampler at every vertex (``direct.direct_light``,
+its diffuse part) and its one diffuse bounce (``surface.diffuse_bounce``), fed the VPL's numbers through
+``PresetNumbers``; they end at the scene's bounce limit (the VPL is the first diffuse vertex) or by Russian roulette on the albedo.
 The result is the VPL's outgoing radiance Lo(y) = albedo / pi * irradiance, per RGB channel.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .direct import diffuse_direct
+from .direct import direct_light
 from .surface import Surface, diffuse_bounce
 
 NUMBERS_PER_VERTEX = 8  # light choice, two for a local light, two for the world, two for the bounce, roulette
@@ -71,8 +71,8 @@ def estimate_radiosity(scene, tracer, lights, surface: Surface, seeds: np.ndarra
     for depth in range(max_bounces):
         u = numbers[owner[rows], sample[rows], depth]  # (k, NUMBERS_PER_VERTEX)
         choice = [u[:, 0]] if lights.local else []
-        direct = diffuse_direct(current, lights, tracer, 1, PresetNumbers(choice),
-                                numbers=tuple(u[:, i:i + 1] for i in (1, 2, 3, 4)))
+        direct = direct_light(current, lights, tracer, 1, PresetNumbers(choice),
+                              numbers=tuple(u[:, i:i + 1] for i in (1, 2, 3, 4)))[0]
         weight = throughput[rows] if depth == 0 else throughput[rows] * current.albedo
         total[rows] += weight * direct
         if depth == max_bounces - 1:

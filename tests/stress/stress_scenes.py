@@ -19,7 +19,7 @@ from vpl_addon.virtual_light_sampling import SamplingSettings
 
 # every method that exists, so a method that lands later is stressed without touching this suite
 METHODS = ("none", *vpl_addon.methods.METHODS)
-ALL_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT)
+ALL_PASSES = P.ALL
 
 # filled by the tests, printed by tests/conftest.py: distinct hostile scenes, renders, bad values seen
 RESULTS = {"scenes": set(), "renders": 0, "bad_values": 0}

@@ -75,6 +75,11 @@ def cases():
     yield "albedo-1 closed room", room(materials=ALBEDO_ONE), {}
     yield "albedo-1 room, 100 bounces", room(materials=ALBEDO_ONE, max_bounces=100), {}
     yield "fully metallic (no diffuse lobe)", room(materials=materials(metallic=1.0)), {}
+    yield "mirror metal (roughness 0)", room(materials=materials(metallic=1.0, roughness=0.0)), {}
+    yield "metal of reflectance 1, rough, 100 bounces", room(materials=materials(
+        metallic=1.0, roughness=1.0, base_color=(1.0, 1.0, 1.0)), max_bounces=100), {}
+    yield "half metal, black specular tint", room(materials=materials(
+        metallic=0.5, roughness=0.2, specular_tint=(0.0, 0.0, 0.0))), {}
     yield "NaN, inf and out-of-range material values", room(materials=materials(
         base_color=(np.nan, 7.0, -3.0), roughness=np.inf, metallic=np.nan, emission=(np.nan, -1.0, 0.0))), {}
     yield "texture of NaN and inf texels", Scene.build(
@@ -163,7 +168,7 @@ def test_hostile_scene_renders_finite_non_negative(name, scene, overrides, metho
     raises passes.BadOutput naming the method and stage on any bad value)."""
     result = render(scene, small_settings(method, **overrides))
     assert tally(name, result) == 0
-    assert set(result.passes) >= {"Combined", "Diffuse Indirect"}
+    assert set(result.passes) >= {"Combined", "Diffuse Indirect", "Glossy Indirect"}
 
 
 def test_cases_are_many_and_distinct():
@@ -181,6 +186,20 @@ def test_albedo_one_room_stays_below_its_energy_bound(method):
     result = render(scene, small_settings(method, placement=budget(512)))
     bound = scene.max_bounces * 100.0 / scene.surface_area / np.pi
     assert 0.0 < result.passes["Diffuse Indirect"].mean() <= 3.0 * bound
+
+
+def test_half_metal_room_stays_below_its_energy_bound():
+    """The same bound for a closed room of white half-metal (F0 = 1, metallic 0.5, rough): the light reflected by
+    both lobes, which vbnl carries through the metallic ones (light paths bouncing off metal, camera paths
+    extended through it), is positive and bounded. (With no diffuse surface at all vbnl has no lights to reach:
+    its indirect light is black, see the hostile "fully metallic" room.)"""
+    scene = room(materials=materials(metallic=0.5, roughness=0.6, base_color=(1.0, 1.0, 1.0)), max_bounces=3)
+    result = render(scene, small_settings("vbnl", placement=budget(512)))
+    bound = scene.max_bounces * 100.0 / scene.surface_area / np.pi
+    glossy = result.passes["Glossy Indirect"] * result.passes["Glossy Color"]
+    diffuse = result.passes["Diffuse Indirect"] * result.passes["Diffuse Color"]
+    assert glossy.mean() > 0.0 and diffuse.mean() > 0.0
+    assert (glossy + diffuse).mean() <= 3.0 * bound
 
 
 @pytest.mark.parametrize("method", METHODS[1:])

@@ -35,7 +35,7 @@ def test_a_method_placing_broken_vpls_is_named_with_stage_place(monkeypatch, val
 
 
 @pytest.mark.parametrize("attribute, stage, name", [
-    ("diffuse_direct", "direct light", "Diffuse Direct"),
+    ("direct_light", "direct light", "Diffuse Direct"),
     ("gather", "gather", "Diffuse Indirect"),
     ("deinterleave", "filter", "Diffuse Indirect"),
 ])

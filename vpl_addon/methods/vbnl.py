@@ -3,8 +3,11 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
 
 ``place`` follows sec. 3:
 1. candidates (sec. 3.1): M = ``candidates`` x N camera samples, the same number in every pixel; at each primary
-   hit x a BSDF-sampled (cosine) ray finds y, a point the gather can see: the candidate. (Diffuse surfaces only:
-   the extension of the camera path on highly specular surfaces, Fig. 6b, comes with glossy materials.)
+   hit x a BSDF-sampled ray (the metallic lobe with probability Metallic, else cosine) finds y, a point the
+   gather can see: the candidate if y has a diffuse colour; on pure metal the camera path goes on (Fig. 6b), up to
+   ``SPECULAR_EXTENSION`` times. Lights hold diffusely reflected light only: a metallic lobe's light is found by
+   extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
+   and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
 3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
    never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
@@ -24,14 +27,16 @@ from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
 from ..photon_lights import ALPHA, PhotonLights
 from ..sample_elimination import MODES, eliminate
-from ..sampling import concentric_disk, dot, orthonormal_basis, stratified_2d
-from ..surface import diffuse_bounce, shade
+from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
+from ..microfacet import GlossyLobe
+from ..surface import Surface, bounce, diffuse_bounce, shade
 from .. import virtual_light_sampling
 
 PATHS_PER_BATCH = 1 << 16
 PIXELS_PER_BATCH = 1 << 14
 POINTS_PER_BATCH = 1 << 18
 DROP = 0.1  # catchment rays start this many radii above the light's tangent plane
+SPECULAR_EXTENSION = 4  # metal surfaces a candidate's camera path may pass before it gives up
 
 
 @dataclass
@@ -51,6 +56,18 @@ class VBNLSettings:
             raise ValueError("vbnl needs candidates >= 1, photons >= 0 and samples >= 1")
 
 
+def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
+    """What one BSDF-sampled ray from each point of ``x`` hits: the metallic lobe with probability Metallic,
+    the cosine-weighted diffuse lobe otherwise."""
+    if not scene.materials.glossy:
+        return diffuse_bounce(scene, tracer, x, rng)[0]
+    dirs, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
+    shiny = np.nonzero(rng.random(len(x)) < x.metallic)[0]
+    dirs[shiny] = GlossyLobe.of(x.take(shiny)).sample(rng.random(len(shiny)), rng.random(len(shiny)),
+                                                      np.arange(len(shiny)))[0]
+    return bounce(scene, tracer, x, dirs)[0]
+
+
 def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int = 8):
     """(positions, normals) of ``count`` points seen from camera-path ends (sec. 3.1), the same number of camera
     samples in every pixel; normals face the point that found them. Rays that find nothing (an open scene) are
@@ -63,7 +80,14 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
         step = max(1, PIXELS_PER_BATCH // spp)
         for lo in range(0, pixels, step):
             x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
-            y = diffuse_bounce(scene, tracer, x, rng)[0]
+            y = _bsdf_bounce(scene, tracer, x, rng)
+            for _ in range(SPECULAR_EXTENSION):  # Fig. 6b: on metal, the camera path goes on
+                metal = (y.albedo.max(axis=1) == 0.0) & (y.metallic > 0.0)
+                if not metal.any():
+                    break
+                y = Surface.concat([y.take(np.nonzero(~metal)[0]),
+                                    _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), rng)])
+            y = y.take(np.nonzero(y.albedo.max(axis=1) > 0.0)[0])  # lights hold diffusely reflected light only
             found_p.append(y.position)
             found_n.append(y.shading_normal)
             found += len(y)
@@ -77,8 +101,8 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
     the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray from
     ``DROP`` r_j above to as far below, each standing for pi r_j^2 / per_light of the disc divided by the cosine
     between the surface and the disc; the sum of their shares s_j. Exact on flat surfaces; points past an edge
-    find no surface and add nothing. The short drop keeps other surfaces near the light (a shelf above a floor)
-    from hiding the light's own."""
+    find no surface, and points on surfaces without a diffuse colour (pure metal), add nothing. The short drop
+    keeps other surfaces near the light (a shelf above a floor) from hiding the light's own."""
     out = np.zeros(len(lights))
     if len(lights) == 0 or per_light <= 0:
         return out
@@ -96,7 +120,7 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
-        mine = lights.share_of(y.position, y.shading_normal, j[rows])
+        mine = lights.share_of(y.position, y.shading_normal, j[rows]) * (y.albedo.max(axis=1) > 0.0)
         area = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)
         out += np.bincount(j[rows], mine * area, len(lights))
     return out
@@ -135,6 +159,6 @@ def gather_samples(settings) -> int:
     return settings.vbnl.sampling.samples
 
 
-def gather(surface, lights, context, settings, rng):
+def gather(surface, lights, context, settings, rng, glossy=None):
     return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
-                                         settings.vbnl.sampling, context.max_bounces)
+                                         settings.vbnl.sampling, context.max_bounces, glossy)
