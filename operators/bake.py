@@ -5,7 +5,8 @@ are exactly what F12 or ``blender -b -a`` would write) with a ``sequence.Sequenc
 (``active_sequence``). Every frame appears atomically (``output.render_to``: a ``.partial-<pid>-`` file renamed into
 place), then the state after that frame is saved atomically under ``.bake-state/`` in the output folder. A bake
 started again over the same folder and settings skips the finished frames and continues from the last saved state,
-so it writes the same bytes as an uninterrupted bake (frame ``f`` renders with ``frame_seed(seed, f)``; the EXR
+so it writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``,
+its pixels use ``seed`` in every frame as Cycles does without an animated seed; the EXR
 header carries no date or render time). A range that starts cold, with no saved state before it, warms the state up
 first (the methods' ``start``), so chunks of one range can be rendered on different machines.
 
@@ -53,7 +54,8 @@ def settings_key(scene) -> dict:
 
 
 def active_sequence(scene, settings, is_animation: bool):
-    """(sequence state or None, seed) for the frame the engine is about to render."""
+    """(sequence state or None, the seed for placing lights) for the frame the engine is about to render: in a
+    sequence ``frame_seed(seed, frame)``, so a frame's lights do not depend on where the bake started."""
     if _ACTIVE is not None:
         return _ACTIVE, frame_seed(settings.seed, scene.frame_current)
     if is_animation:
@@ -66,7 +68,7 @@ def active_sequence(scene, settings, is_animation: bool):
         state = _ANIMATION[key][0]
         _ANIMATION[key] = (state, scene.frame_current)
         return state, frame_seed(settings.seed, scene.frame_current)
-    return None, settings.seed
+    return None, None
 
 
 def frame_path(out_dir: str, frame: int) -> str:

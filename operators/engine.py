@@ -67,7 +67,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self._report("WARNING", warning)
         passes = requested_passes(view_layer)
         settings = scene.vpl_gi.render_settings(passes)
-        sequence, settings.seed = active_sequence(scene, settings, self.is_animation)  # a bake or blender -a
+        sequence, settings.placement_seed = active_sequence(scene, settings, self.is_animation)  # bake, blender -a
 
         def progress(fraction, text):
             self.update_progress(fraction)

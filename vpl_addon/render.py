@@ -42,6 +42,9 @@ class RenderSettings:
     samples: int = 64  # camera samples per pixel (G-buffer)
     light_samples: int = 8  # next-event samples per camera sample for direct light
     seed: int = 0
+    # a sequence's seed of this frame for placing lights (None: ``seed``); the pixels keep ``seed`` in every frame,
+    # as Cycles without an animated seed, so their noise does not flicker
+    placement_seed: int | None = None
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
     method: str = "vbnl"  # how virtual lights are placed: vbnl, bidir, ir, or none (no indirect light)
     indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
@@ -120,7 +123,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     try:
         if need_indirect:
             t0 = time.perf_counter()
-            context = MethodContext(scene, tracer, lights, np.random.default_rng([settings.seed, 1 << 20]), bounces)
+            placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
+            context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces)
             vpls, result.info = (place if sequence is None else sequence.place)(settings.method, context,
                                                                                 settings.placement)
             guard("place", {"VPL intensity": vpls.intensity})

@@ -9,11 +9,13 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
   across frames (``smc``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up, so a
   chunk of frames can begin on another machine) and ``advance(state, context, settings, motion) -> (lights, info)``.
   For the others the rule is the static one: when nothing they depend on changed (geometry, lights, shading, and the
-  camera for the view-dependent ones), the previous frame's lights are reused and no light path is traced.
+  camera for the view-dependent ones), the previous frame's lights are reused and no light path is traced; the
+  placement generator is put back where it was after they were placed, so the frame renders exactly as that one.
 
 The state pickles (without its tracer), so a bake saves it after every frame and an interrupted bake resumes from
-the last finished frame with exactly the state an uninterrupted bake would have had. Frame ``f`` renders with
-``frame_seed(seed, f)``: its random numbers do not depend on where the bake started.
+the last finished frame with exactly the state an uninterrupted bake would have had. Frame ``f`` places its lights
+with ``frame_seed(seed, f)`` (``RenderSettings.placement_seed``) and samples its pixels with ``seed``: its random
+numbers do not depend on where the bake started, and the pixel noise does not flicker.
 """
 from __future__ import annotations
 
@@ -45,6 +47,7 @@ class SequenceState:
         self.info: dict = {}
         self.method_state = None  # what a sequence method keeps (its ``start``/``advance``)
         self.bvh_builds = 0  # BVHs built over the whole sequence (static frames build none)
+        self.rng_state = None  # the placement generator's state after the lights were last placed
         self._tracer: Tracer | None = None
         self._tracer_digest: str | None = None
 
@@ -75,6 +78,12 @@ class SequenceState:
             info = {**self.info, "light_paths": 0, "reused": True}
         else:
             lights, info = place(name, context, settings)
+        if info.get("reused") and self.rng_state is not None:
+            # the frame is the frame the lights were placed in: what the caller draws next (the gather's order of
+            # the lights) is drawn the same, so a static frame renders exactly as that frame
+            context.rng.bit_generator.state = self.rng_state
+        else:
+            self.rng_state = context.rng.bit_generator.state
         self.lights, self.info = lights, {k: v for k, v in info.items() if k != "reused"}
         return lights, info
 
