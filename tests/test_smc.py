@@ -94,10 +94,12 @@ def test_at_most_m_max_vpls_move_per_frame_and_the_budget_is_kept():
         for step, light_at in enumerate([(0.2, 0.5, 1), (0.4, 0.5, 1), (0.6, 0.5, 1)], start=1):
             moved = lamp_scene(light_at=light_at)
             motion = Motion.between(Snapshot.of(scene), Snapshot.of(moved))
-            before = set(state.seed.tolist())
+            before = state.seed.copy()
             lights, info = smc.advance(state, _context(moved, tracer, step), settings, motion)
             assert len(lights) == 96 and info["replaced"] <= 5 == settings.smc.replacements
-            assert len(before - set(state.seed.tolist())) == info["replaced"]
+            assert len(set(before.tolist()) - set(state.seed.tolist())) == info["replaced"]
+            lives = np.isin(before, state.seed)  # a VPL that lives on keeps its slot; new ones take freed slots
+            assert np.array_equal(state.seed[lives], before[lives]) and (~lives).sum() == info["replaced"]
             scene = moved
         still, info = smc.advance(state, _context(scene, tracer, 9), settings, Motion())
         assert info["reused"] and info["sampling_rays"] == 0 and np.array_equal(still.intensity, lights.intensity)

@@ -78,9 +78,11 @@ class SequenceState:
             info = {**self.info, "light_paths": 0, "reused": True}
         else:
             lights, info = place(name, context, settings)
-        if info.get("reused") and self.rng_state is not None:
-            # the frame is the frame the lights were placed in: what the caller draws next (the gather's order of
-            # the lights) is drawn the same, so a static frame renders exactly as that frame
+        stable = getattr(module, "STABLE_LIGHTS", False)  # lights that keep their slots from frame to frame
+        if (info.get("reused") or stable) and self.rng_state is not None:
+            # what the caller draws next (the gather's order of the lights) is drawn as in the frame the lights
+            # were placed in (or, for stable slots, the first frame): a static frame renders exactly as that frame,
+            # and a VPL that lives on stays in its interleaving subset
             context.rng.bit_generator.state = self.rng_state
         else:
             self.rng_state = context.rng.bit_generator.state

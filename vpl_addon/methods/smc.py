@@ -36,6 +36,9 @@ from ..vpl_radiosity import estimate_radiosity
 
 
 SELECTION, RENDERING = 0, 1  # the two random streams of a VPL's radiosity paths
+# A VPL keeps its slot in the set while it lives (a new one takes the slot of the one it replaces), so the sequence
+# keeps the gather's order of the slots from frame to frame: each VPL stays in its interleaving subset.
+STABLE_LIGHTS = True
 
 
 @dataclass
@@ -178,8 +181,8 @@ def iterate(state: SMCState, context, settings, motion=None) -> None:
         weakest = np.nonzero(valid)[0]
         weakest = weakest[np.argsort(state.strength[weakest], kind="stable")]
         invalid = np.concatenate([invalid, weakest[:m_min - len(invalid)]])
+    before, leave = len(state), np.sort(invalid[:s.replacements])
     if len(state):
-        leave = invalid[:s.replacements]
         state.keep(np.setdiff1d(np.arange(len(state)), leave))
 
     # the strongest candidates fill the budget
@@ -199,6 +202,10 @@ def iterate(state: SMCState, context, settings, motion=None) -> None:
         state.strength = np.concatenate([state.strength, strength[best]])
         state.area = np.concatenate([state.area, np.zeros(len(best))])
         state.area_count = np.concatenate([state.area_count, np.zeros(len(best), np.int64)])
+        if len(leave) and len(best) >= len(leave):  # new VPLs take the slots of those they replace
+            dest = np.concatenate([np.setdiff1d(np.arange(before), leave), leave,
+                                   before + np.arange(len(best) - len(leave))])
+            state.keep(np.argsort(dest))
     state.next_seed += len(cand)
 
     # lines 18-19: radiosities where the scene changed, densities for rendering
