@@ -8,7 +8,7 @@ SCIPY_WHEEL := scipy-1.17.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86
 WHEELS := wheels/$(EMBREEX_WHEEL) wheels/$(SCIPY_WHEEL)
 DEMO_SCENE := example_blends/cornell_area.blend
 
-.PHONY: venv test test-all demo wheels extension examples bench clean
+.PHONY: venv test test-all demo wheels extension examples scenes bench clean
 
 venv: $(STAMP)
 
@@ -50,6 +50,12 @@ examples: $(STAMP)
 	$(BIN)/python example_blends/make_corridor.py
 	$(BIN)/python example_blends/make_metal.py
 	$(BIN)/python example_blends/make_sequences.py
+
+# The public scenes of ../shared/scenes (Mitsuba XML, Cornell measured data) as .blend files in scenes/ (git-ignored;
+# nothing from ../shared is committed). A file is rewritten only when the converter or its source changed.
+SCENES_SOURCE ?= ../shared/scenes
+scenes: $(STAMP)
+	$(BIN)/python -m vpl_addon scenes --source $(SCENES_SOURCE) --out scenes
 
 # Tracer throughput, then time against error of every method and Cycles on every example scene, with the scaling
 # runs (12.6 minutes measured on 2 cores before vbnl joined; about 16 with it); results in out/bench/ (bench.csv, <scene>.png, summary.txt, scaling.csv).

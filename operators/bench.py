@@ -33,7 +33,7 @@ from ..vpl_addon import passes as P
 from ..vpl_addon import tracer as tracer_module
 from ..vpl_addon.exr import read_passes
 from ..vpl_addon.methods import METHODS
-from ..vpl_addon.metrics import coverage_mask, errors
+from ..vpl_addon.metrics import coverage_mask, errors, pass_mask
 from ..vpl_addon.render import RenderSettings, render
 from ..vpl_addon.subdivision import levels_for, subdivide
 from .extract import ExtractionError, extract
@@ -414,7 +414,7 @@ class Bench:
         self.say(f"{label}: {w}x{h}, reference {source}")
 
         def judge(images: dict, passes) -> dict:
-            return {name: errors(images[name], reference[name], mask) for name in passes}
+            return {name: errors(images[name], reference[name], pass_mask(name, reference, mask)) for name in passes}
 
         runs: list[Run] = []
         engine_methods = [m for m in self.o.methods if m in METHODS]

@@ -253,6 +253,32 @@ def cmd_bench(args) -> int:
     return 0
 
 
+def cmd_scenes(args) -> int:
+    from . import scene_import
+    from .mitsuba import MitsubaError
+    if not os.path.isdir(args.source):
+        raise UserError(f"no such folder: {args.source} (the public scenes, ../shared/scenes from the repository)")
+    names = args.names or list(scene_import.SCENES)
+    for name in names:
+        if name not in scene_import.SCENES:
+            raise UserError(f"unknown scene {name!r}; choose from {', '.join(scene_import.SCENES)}")
+    for name in names:
+        out = os.path.join(args.out, name + ".blend")
+        t0 = time.perf_counter()
+        try:
+            written, warnings = scene_import.convert(args.source, name, out, width=args.width, force=args.force)
+        except MitsubaError as err:
+            raise UserError(str(err)) from None
+        if not written:
+            print(f"up to date: {out}")
+            continue
+        for w in warnings:
+            print(f"  warning: {w}")
+        print(f"wrote {out} ({os.path.getsize(out) / 1e6:.1f} MB, {time.perf_counter() - t0:.1f} s, "
+              f"{len(warnings)} warnings)")
+    return 0
+
+
 def _render_flags(r) -> None:
     """The engine settings shared by ``render`` and ``bake``."""
     from ..vpl_addon.methods import METHODS
@@ -340,6 +366,14 @@ def parser() -> argparse.ArgumentParser:
                    help="where rendered references are kept by hash")
     b.add_argument("--overwrite", action="store_true", help="replace the output files if they exist")
     b.set_defaults(run=cmd_bench)
+    sc = sub.add_parser("scenes", help="convert the public scenes (Mitsuba XML, Cornell measured data) to .blend")
+    sc.add_argument("names", nargs="*", help="scenes to convert (default: all)")
+    sc.add_argument("--source", default=os.path.join("..", "shared", "scenes"),
+                    help="folder of the public scenes (default ../shared/scenes)")
+    sc.add_argument("--out", default="scenes", help="output folder (default scenes/, git-ignored)")
+    sc.add_argument("--width", type=int, default=256, help="image width in pixels (default 256)")
+    sc.add_argument("--force", action="store_true", help="rewrite files even if their fingerprint is current")
+    sc.set_defaults(run=cmd_scenes)
     return p
 
 

@@ -5,7 +5,7 @@ import numpy as np
 
 from . import passes as P
 from .exr import read_passes
-from .metrics import coverage_mask, error_map, errors
+from .metrics import coverage_mask, error_map, errors, pass_mask
 
 
 def compare_files(image_path: str, reference_path: str, names: list[str] | None = None,
@@ -20,10 +20,11 @@ def compare_files(image_path: str, reference_path: str, names: list[str] | None 
         else None
     any_ref = reference[common[0]]
     mask = coverage_mask(ref_alpha, any_ref.shape[:2])
-    result = {name: errors(image[name], reference[name], mask) for name in common}
+    result = {name: errors(image[name], reference[name], pass_mask(name, reference, mask)) for name in common}
     if heatmap:
         focus = next((n for n in (P.DIFFUSE_INDIRECT, P.DIFFUSE_DIRECT) if n in common), common[0])
-        write_heatmap(heatmap, error_map(image[focus], reference[focus]), mask, f"{focus}: relative error")
+        write_heatmap(heatmap, error_map(image[focus], reference[focus]), pass_mask(focus, reference, mask),
+                      f"{focus}: relative error")
     return result
 
 

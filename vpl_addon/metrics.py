@@ -3,7 +3,10 @@
 rMAE as in Li et al. (Virtual Blue Noise Lighting, sec. 5): |I - I_ref| / (I_ref + 0.01 mean(I_ref)), averaged
 over masked pixels and channels; relMSE the squared analogue; RMSE after Reinhard tone mapping x / (1 + x);
 mean ratio = mean(I) / mean(I_ref). The mask keeps pixels whose reference alpha is at least 0.999: silhouette
-pixels have random coverage and would dominate the error of a pass that Cycles divides by a colour.
+pixels have random coverage and would dominate the error of a pass that Cycles divides by a colour. For those
+passes (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, the glossy ones by ``Glossy Color``) the
+pixels whose reference colour is 0 (metals for the diffuse passes, diffuse surfaces for the glossy ones) are left
+out as well: Cycles writes 0 there by convention, the pass is undefined and the composite ignores it.
 """
 from __future__ import annotations
 
@@ -16,6 +19,19 @@ def coverage_mask(reference_alpha: np.ndarray | None, shape: tuple[int, int]) ->
     if reference_alpha is None:
         return np.ones(shape, bool)
     return np.asarray(reference_alpha).reshape(shape) >= FULL_COVERAGE
+
+
+DIVIDED_BY = {"Diffuse Direct": "Diffuse Color", "Diffuse Indirect": "Diffuse Color",
+              "Glossy Direct": "Glossy Color", "Glossy Indirect": "Glossy Color"}  # Cycles' pass divisions
+
+
+def pass_mask(name: str, reference: dict, mask: np.ndarray) -> np.ndarray:
+    """``mask`` without the pixels where pass ``name`` is undefined in the reference passes ``reference``: for a
+    pass Cycles divides by a colour (``DIVIDED_BY``), where that colour is 0."""
+    color = reference.get(DIVIDED_BY.get(name))
+    if color is None:
+        return mask
+    return mask & (np.asarray(color)[..., :3].max(axis=-1) > 0.0)
 
 
 def errors(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = None) -> dict[str, float]:

@@ -30,6 +30,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
+SLAB = 0.1  # a light covers points within this many radii of its tangent plane: no share across thin walls
 
 
 @dataclass
@@ -74,8 +75,10 @@ class PhotonLights:
         return np.where(area[:, None] > 0.0, self.intensity_upto(bounces) / np.maximum(area, 1e-300)[:, None], 0.0)
 
     def shares(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Pairs (point row, light, s_j(point)): the lights whose sphere holds the point, facing its side, with
-        shares 1 - (d / r_j)^2 that sum to one over each point's pairs."""
+        """Pairs (point row, light, s_j(point)): the lights whose sphere holds the point, facing its side and within
+        ``SLAB`` r_j of their tangent plane (no light reaches through a wall or floor to the surface behind it,
+        e.g. the sunlit sill outside a window), with shares 1 - (d / r_j)^2 that sum to one over each point's
+        pairs."""
         if len(self) == 0 or len(points) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
         k = min(self.neighbours, len(self))
@@ -83,7 +86,9 @@ class PhotonLights:
         dist, light = dist.reshape(len(points), k), light.reshape(len(points), k)
         found = light < len(self)
         safe = np.where(found, light, 0)
-        inside = found & (dist <= self.radius[safe]) & (np.einsum("ij,ikj->ik", normals, self.normal[safe]) > 0.0)
+        off_plane = np.abs(np.einsum("ikj,ikj->ik", points[:, None, :] - self.position[safe], self.normal[safe]))
+        inside = found & (dist <= self.radius[safe]) & (np.einsum("ij,ikj->ik", normals, self.normal[safe]) > 0.0) \
+            & (off_plane <= SLAB * self.radius[safe])
         rows, cols = np.nonzero(inside)
         light = light[rows, cols]
         w = np.maximum(1.0 - (dist[rows, cols] / self.radius[light]) ** 2, 1e-12)  # the rim still counts

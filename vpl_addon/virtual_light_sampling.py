@@ -39,6 +39,11 @@ from .sampling import cosine_hemisphere, dot, group_sum, sample_cdf, uniform_con
 from .surface import bounce
 
 
+# next-event samples at a metallic vertex the camera path extends to: light reaching a diffuse point over metal
+# (a caustic) comes only from them, and a sharp lobe catches a light rarely
+GLOSSY_LIGHT_SAMPLES = 8
+
+
 @dataclass
 class SamplingSettings:
     samples: int = 16  # sample pairs (BSDF + light) per pixel: the budget knob
@@ -189,6 +194,6 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
     if len(shiny):
         nxt = _Vertices(y.take(shiny), owner[at][shiny], carried[shiny], GlossyLobe.of(y.take(shiny)))
         out += group_sum(nxt.owner, nxt.throughput *
-                         direct_light(nxt.point, light_set, tracer, 1, rng, glossy=nxt.lobe)[1], len(out))
+                         direct_light(nxt.point, light_set, tracer, GLOSSY_LIGHT_SAMPLES, rng, glossy=nxt.lobe)[1], len(out))
         following.append(nxt)
     return following

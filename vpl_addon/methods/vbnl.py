@@ -25,7 +25,7 @@ import numpy as np
 
 from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
-from ..photon_lights import ALPHA, PhotonLights
+from ..photon_lights import ALPHA, SLAB, PhotonLights
 from ..sample_elimination import MODES, eliminate
 from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
 from ..microfacet import GlossyLobe
@@ -35,7 +35,7 @@ from .. import virtual_light_sampling
 PATHS_PER_BATCH = 1 << 16
 PIXELS_PER_BATCH = 1 << 14
 POINTS_PER_BATCH = 1 << 18
-DROP = 0.1  # catchment rays start this many radii above the light's tangent plane
+DROP = SLAB  # catchment rays start this many radii above the light's tangent plane: its whole slab
 SPECULAR_EXTENSION = 4  # metal surfaces a candidate's camera path may pass before it gives up
 
 
