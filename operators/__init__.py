@@ -1,7 +1,7 @@
 """Everything that touches bpy: extraction, settings, the render engine, panels, Cycles references, the CLI."""
-from . import engine, panels, properties
+from . import bake, engine, panels, properties
 
-MODULES = (properties, engine, panels)
+MODULES = (properties, engine, panels, bake)
 
 
 def register():

@@ -40,43 +40,16 @@ def _ensure_registered():
 
 def cmd_render(args) -> int:
     from . import engine
-    from .extract import ExtractionError, camera_of
     from .output import check_target, render_to
 
     out = check_target(args.output, args.overwrite)
     if os.path.exists(out) and os.path.exists(args.scene) and os.path.samefile(out, args.scene):
         raise UserError(f"{out} is the scene being rendered; choose another output file")
-    _ensure_registered()
-    scene = _open_blend(args.scene)
-    try:
-        camera_of(scene)
-    except ExtractionError as err:
-        raise UserError(str(err)) from None
-    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
-    settings = scene.vpl_gi
-    for flag in SETTING_FLAGS:
-        if getattr(args, flag) is not None:
-            _check_range(settings, flag, getattr(args, flag))
-            setattr(settings, flag, getattr(args, flag))
-    if args.no_filter:
-        settings.filter = False
-    if args.no_path_extension:
-        settings.path_extension = False
-    if args.percentage is not None:
-        scene.render.resolution_percentage = args.percentage
-    for layer in scene.view_layers:
-        for _, toggle, _, _ in engine.PASS_TOGGLES:
-            setattr(layer, toggle, True)
+    scene = _prepare_scene(args)
     if args.frame is not None:
         scene.frame_set(args.frame)
     t0 = time.perf_counter()
-
-    def verify():  # before the image replaces anything: the engine's first error, if any, ends the run
-        errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
-        if errors:
-            raise UserError(errors[0])
-
-    render_to(scene, out, verify)
+    render_to(scene, out, _verify)
     for level, message in engine.LAST_REPORTS:
         if level == "WARNING":
             print(f"warning: {message}", file=sys.stderr)
@@ -95,6 +68,90 @@ def cmd_render(args) -> int:
     return 0
 
 
+def _verify():
+    """Called before an image replaces anything: the engine's first error, if any, ends the run."""
+    from . import engine
+    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
+    if errors:
+        raise UserError(errors[0])
+
+
+def parse_frames(text: str) -> range:
+    """``A:B`` (inclusive, as Blender's -s/-e) or a single frame ``A``."""
+    try:
+        first, _, last = text.partition(":")
+        first, last = int(first), int(last or first)
+    except ValueError:
+        raise UserError(f"--frames {text!r}: expected FIRST:LAST, e.g. 1:48") from None
+    if last < first:
+        raise UserError(f"--frames {text!r}: the last frame comes before the first")
+    return range(first, last + 1)
+
+
+def cmd_bake(args) -> int:
+    from .bake import Bake, BakeError
+    from .output import render_to
+    frames = parse_frames(args.frames)
+    if not os.path.isfile(args.scene):
+        raise UserError(f"no such file: {args.scene}")
+    if os.path.isfile(args.output):
+        raise UserError(f"{args.output} is a file; -o takes the folder the frames go to")
+    scene = _prepare_scene(args)
+    t0 = time.perf_counter()
+    try:
+        bake = Bake(scene, args.output, frames, args.overwrite)
+    except BakeError as err:
+        raise UserError(str(err)) from None
+
+    def progress(fraction, text):
+        entry = bake.report.frames[-1] if bake.report.frames else None
+        if entry is not None:
+            traced = f" ({entry['light_path_rays']} rays)" if entry.get("light_path_rays") is not None else ""
+            print(f"{text}: {entry['light_paths'] if entry['light_paths'] is not None else '-'} light paths{traced}"
+                  f"{' (reused)' if entry['reused'] else ''}, {(entry['rays'] or 0) / 1e6:.2f} M rays, "
+                  f"{entry['seconds']:.2f} s", flush=True)
+        return True
+
+    report = bake.run(progress, lambda path: render_to(scene, path, _verify))
+    if report.skipped:
+        print(f"skipped {len(report.skipped)} finished frames"
+              + (f", resumed from the state after frame {report.resumed_from}" if report.resumed_from is not None
+                 else ""))
+    print(f"baked {len(report.rendered)} frames to {os.path.abspath(args.output)} in "
+          f"{time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _prepare_scene(args):
+    """Open ``args.scene`` with the VPL GI engine, the settings given as flags and every pass on."""
+    from . import engine
+    from .extract import ExtractionError, camera_of
+    _ensure_registered()
+    scene = _open_blend(args.scene)
+    try:
+        camera_of(scene)
+    except ExtractionError as err:
+        raise UserError(str(err)) from None
+    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+    settings = scene.vpl_gi
+    for flag in SETTING_FLAGS:
+        if getattr(args, flag) is not None:
+            _check_range(settings, flag, getattr(args, flag))
+            setattr(settings, flag, getattr(args, flag))
+    if args.no_filter:
+        settings.filter = False
+    if args.no_path_extension:
+        settings.path_extension = False
+    if getattr(args, "no_path_reuse", False):
+        settings.path_reuse = False
+    if args.percentage is not None:
+        scene.render.resolution_percentage = args.percentage
+    for layer in scene.view_layers:
+        for _, toggle, _, _ in engine.PASS_TOGGLES:
+            setattr(layer, toggle, True)
+    return scene
+
+
 def _check_range(settings, flag, value):
     """Blender clamps a number outside its property's range without a word (and keeps NaN): refuse it instead."""
     prop = settings.bl_rna.properties[flag]
@@ -107,7 +164,7 @@ def _check_range(settings, flag, value):
 
 
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",
-                 "photons", "vbnl_samples", "elimination")
+                 "photons", "vbnl_samples", "elimination", "smc_replacements", "smc_warmup")
 
 
 def cmd_reference(args) -> int:
@@ -125,13 +182,21 @@ def cmd_reference(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from ..vpl_addon.compare import compare_files
-    for path in (args.image, args.reference):
-        if not os.path.isfile(path):
+    from ..vpl_addon.compare import compare_files, compare_sequences
+    folders = [os.path.isdir(p) for p in (args.image, args.reference)]
+    for path, folder in zip((args.image, args.reference), folders):
+        if not (folder or os.path.isfile(path)):
             raise UserError(f"no such file: {path}")
+    if folders[0] != folders[1]:
+        raise UserError("compare two files, or two folders of frame_NNNN.exr (a sequence and its references)")
     names = [n.strip() for n in args.passes.split(",")] if args.passes else None
     try:
-        result = compare_files(args.image, args.reference, names, args.heatmap)
+        if folders[0]:
+            if args.heatmap:
+                raise UserError("--heatmap is for single images, not sequences")
+            result = compare_sequences(args.image, args.reference, names)
+        else:
+            result = compare_files(args.image, args.reference, names, args.heatmap)
     except ValueError as err:
         raise UserError(str(err)) from None
     print(json.dumps(result, indent=2))
@@ -214,18 +279,13 @@ def cmd_scenes(args) -> int:
     return 0
 
 
-def parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="python -m vpl_addon",
-                                description="VPL GI: indirect light with virtual lights, judged against Cycles.")
-    sub = p.add_subparsers(dest="command", required=True)
-    r = sub.add_parser("render", help="render a .blend with the VPL GI engine to a multilayer EXR")
-    r.add_argument("scene", help="the .blend file")
-    r.add_argument("-o", "--output", required=True, help="multilayer EXR to write")
-    r.add_argument("--frame", type=int, help="frame to render (default: the scene's current frame)")
+def _render_flags(r) -> None:
+    """The engine settings shared by ``render`` and ``bake``."""
+    from ..vpl_addon.methods import METHODS
     r.add_argument("--samples", type=int, help="camera samples per pixel")
     r.add_argument("--light-samples", type=int, help="shadow rays per camera sample for direct light")
     r.add_argument("--seed", type=int, help="random seed")
-    r.add_argument("--method", choices=("vbnl", "bidir", "ir", "none"),
+    r.add_argument("--method", choices=(*METHODS, "none"),
                    help="how virtual lights are placed (default: the scene's setting)")
     r.add_argument("--vpls", type=int, help="VPL budget: the lights the gather uses")
     r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
@@ -236,9 +296,33 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel")
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
     r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
+    r.add_argument("--no-path-reuse", action="store_true",
+                   help="ir in a sequence: trace every light path again when an object moved (no path verification)")
+    r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
+    r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
+
+
+def parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="python -m vpl_addon",
+                                description="VPL GI: indirect light with virtual lights, judged against Cycles.")
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("render", help="render a .blend with the VPL GI engine to a multilayer EXR")
+    r.add_argument("scene", help="the .blend file")
+    r.add_argument("-o", "--output", required=True, help="multilayer EXR to write")
+    r.add_argument("--frame", type=int, help="frame to render (default: the scene's current frame)")
+    _render_flags(r)
     r.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
     r.set_defaults(run=cmd_render)
+    bk = sub.add_parser("bake", help="render a frame range to one multilayer EXR per frame, carrying each "
+                                     "method's state from frame to frame (resumable)")
+    bk.add_argument("scene", help="the .blend file")
+    bk.add_argument("--frames", required=True, help="FIRST:LAST, inclusive (e.g. 1:48)")
+    bk.add_argument("-o", "--output", required=True, help="folder for frame_NNNN.exr (and the bake's state)")
+    _render_flags(bk)
+    bk.add_argument("--overwrite", action="store_true",
+                    help="replace a bake of other settings (or frames not from a bake) in the folder")
+    bk.set_defaults(run=cmd_bake)
     ref = sub.add_parser("reference", help="render the Cycles reference of a .blend (cached by scene hash)")
     ref.add_argument("scene")
     ref.add_argument("-o", "--output", required=True)
@@ -249,9 +333,10 @@ def parser() -> argparse.ArgumentParser:
                      help="where converged references are kept by hash")
     ref.add_argument("--overwrite", action="store_true")
     ref.set_defaults(run=cmd_reference)
-    c = sub.add_parser("compare", help="error of every common pass against a reference, as JSON")
-    c.add_argument("image")
-    c.add_argument("reference")
+    c = sub.add_parser("compare", help="error of every common pass against a reference, as JSON; for two folders "
+                                       "of frame_NNNN.exr, |E| and |E'| of the sequence (Hedman et al.)")
+    c.add_argument("image", help="an EXR, or a folder of frames (a bake)")
+    c.add_argument("reference", help="its reference, or a folder of per-frame references")
     c.add_argument("--heatmap", help="PNG of the per-pixel relative error")
     c.add_argument("--passes", help="comma-separated pass names (default: all in common)")
     c.set_defaults(run=cmd_compare)

@@ -13,6 +13,7 @@ import numpy as np
 from ..vpl_addon import passes as P
 from ..vpl_addon.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
+from .bake import FRAME_LOG, active_sequence
 from .extract import ExtractionError, extract
 
 # (pass name, view layer toggle, channels, channel ids)
@@ -66,6 +67,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self._report("WARNING", warning)
         passes = requested_passes(view_layer)
         settings = scene.vpl_gi.render_settings(passes)
+        sequence, settings.placement_seed = active_sequence(scene, settings, self.is_animation)  # bake, blender -a
 
         def progress(fraction, text):
             self.update_progress(fraction)
@@ -73,7 +75,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             return not self.test_break()
 
         try:
-            result = render(built, settings, progress)
+            result = render(built, settings, progress, sequence=sequence)
         except Cancelled:
             self._report("INFO", "render cancelled")
             return
@@ -85,6 +87,9 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             return
         for warning in result.warnings:
             self._report("WARNING", warning)
+        if sequence is not None:
+            FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
+                              "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds})
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info)

@@ -39,6 +39,11 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
             sub.prop(settings, "elimination")
             sub.prop(settings, "path_extension")
         else:
+            if settings.method == "ir":
+                sub.prop(settings, "path_reuse")
+            if settings.method == "smc":
+                sub.prop(settings, "smc_replacements")
+                sub.prop(settings, "smc_warmup")
             sub.prop(settings, "indirect_samples")
             sub.prop(settings, "clamp")
             sub.prop(settings, "interleave")

@@ -1,6 +1,8 @@
 """Settings of the VPL GI engine, stored on the scene as ``scene.vpl_gi``; defaults come from the engine's own
 settings classes so Blender, the command line and the engine agree."""
 
+from dataclasses import replace
+
 import bpy
 
 from ..vpl_addon.gather import GatherSettings
@@ -11,6 +13,7 @@ from ..vpl_addon.virtual_light_sampling import SamplingSettings
 
 _RENDER, _GATHER, _PLACE = RenderSettings(), GatherSettings(), MethodSettings()
 _VBNL = _PLACE.vbnl
+_SMC = _PLACE.smc
 
 METHOD_ITEMS = (
     ("vbnl", "Virtual Blue Noise Lighting", "Li et al. 2022: lights placed from the camera in a blue-noise "
@@ -18,6 +21,8 @@ METHOD_ITEMS = (
     ("bidir", "Bidirectional IR", "Segovia et al. 2006: VPLs from the lights and from the camera, resampled by the "
                                   "power they bring to the image (robust when light comes through a door)"),
     ("ir", "Instant Radiosity", "Keller 1997: VPLs where light paths from the lights bounce"),
+    ("smc", "Sequential Monte Carlo IR", "Hedman et al. 2016: VPLs kept from frame to frame where the camera sees "
+                                          "them indirectly, at most a few moved per frame (stable animations)"),
     ("none", "None", "Direct light only: no indirect light is computed"),
 )
 
@@ -67,10 +72,30 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Seed", default=_RENDER.seed, min=0,
         description="Seed of the random numbers: the same seed gives the same image")
 
+    smc_replacements: bpy.props.IntProperty(
+        name="Moves per Frame", default=_SMC.replacements, min=1, soft_max=1024,
+        description="Sequential Monte Carlo: VPLs allowed to move between frames (M_max); fewer is steadier, "
+                    "more adapts faster")
+    smc_warmup: bpy.props.IntProperty(
+        name="Warm-up Iterations", default=_SMC.warmup, min=0, soft_max=1000,
+        description="Sequential Monte Carlo: iterations run before the first frame of a (cold) sequence")
+    path_reuse: bpy.props.BoolProperty(
+        name="Path Reuse", default=_PLACE.path_reuse,
+        description="In animations, keep light paths between frames and re-trace only those that moving objects "
+                    "cut (Instant Radiosity)")
+    bake_directory: bpy.props.StringProperty(
+        name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
+        description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
+    bake_overwrite: bpy.props.BoolProperty(
+        name="Replace Other Bake", default=False,
+        description="Replace a bake of other settings (or frames not from a bake) found in the folder")
+
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               method=self.method, indirect_samples=self.indirect_samples,
-                              placement=MethodSettings(vpls=self.vpls, vbnl=VBNLSettings(
+                              placement=MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse, smc=replace(
+                                  _SMC, replacements=self.smc_replacements, warmup=self.smc_warmup),
+                                  vbnl=VBNLSettings(
                                   photons=self.photons, elimination=self.elimination,
                                   sampling=SamplingSettings(samples=self.vbnl_samples,
                                                             extension=self.path_extension))),

@@ -42,3 +42,44 @@ def write_heatmap(path: str, err: np.ndarray, mask: np.ndarray, title: str) -> N
     fig.colorbar(im, ax=ax, fraction=0.046)
     fig.savefig(path, bbox_inches="tight")
     plt.close(fig)
+
+
+SEQUENCE_PASSES = (P.DIFFUSE_INDIRECT,)  # what Hedman et al. measure: the indirect light
+
+
+def sequence_frames(folder: str) -> dict[int, str]:
+    """Frame number -> path of every ``frame_NNNN.exr`` (a bake's output, or references named the same way)."""
+    import os
+    import re
+    found = {}
+    for name in os.listdir(folder):
+        m = re.fullmatch(r"frame_(-?\d+)\.exr", name)
+        if m:
+            found[int(m.group(1))] = os.path.join(folder, name)
+    return dict(sorted(found.items()))
+
+
+def compare_sequences(image_dir: str, reference_dir: str, names: list[str] | None = None) -> dict:
+    """|E| and |E'| after Reinhard tone mapping (``temporal``) of the frames both folders hold, per pass, with
+    each frame's rMAE; frames must be consecutive."""
+    from .temporal import sequence_mask, temporal_errors
+    images, references = sequence_frames(image_dir), sequence_frames(reference_dir)
+    frames = [f for f in images if f in references]
+    if not frames:
+        raise ValueError(f"no frame in common: {image_dir} has {len(images)} frame_NNNN.exr, {reference_dir} "
+                         f"has {len(references)}")
+    if frames != list(range(frames[0], frames[-1] + 1)):
+        raise ValueError(f"frames {frames[0]}..{frames[-1]} are not consecutive in both folders")
+    loaded = [(read_passes(images[f])[0], read_passes(references[f])[0]) for f in frames]
+    common = [n for n in (names or SEQUENCE_PASSES) if all(n in a and n in b for a, b in loaded)]
+    if not common:
+        raise ValueError(f"no pass {', '.join(names or SEQUENCE_PASSES)} in every frame of both folders")
+    alphas = [ref[P.COMBINED][..., 3] if P.COMBINED in ref and ref[P.COMBINED].shape[2] == 4 else None
+              for _, ref in loaded]
+    mask = sequence_mask(alphas, loaded[0][1][common[0]].shape[:2])
+    result = {}
+    for name in common:
+        result[name] = temporal_errors([a[name] for a, _ in loaded], [b[name] for _, b in loaded], mask)
+        result[name]["first_frame"] = frames[0]
+        result[name]["rmae_per_frame"] = [errors(a[name], b[name], mask)["rmae"] for a, b in loaded]
+    return result

@@ -22,19 +22,26 @@ BATCH_PATHS = 1 << 15
 
 
 def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max_bounces: int,
-                light_prob: np.ndarray | None = None, first_path: int = 0) -> VirtualLights:
+                light_prob: np.ndarray | None = None, first_path: int = 0, start=None, record=None) -> VirtualLights:
     """VPLs of ``count`` light paths with at most ``max_bounces`` surface interactions (not yet divided by the
-    number of paths)."""
-    if count <= 0 or len(lights) == 0 or max_bounces <= 0:
+    number of paths). Path verification (``path_verification``) continues paths from a given segment with
+    ``start = (origins, dirs, power, path ids, bounce)`` instead of emitting, and keeps every traced segment through
+    ``record(bounce, origins, dirs, power, path ids)``."""
+    if len(lights) == 0 or max_bounces <= 0 or (count <= 0 if start is None else len(start[0]) == 0):
         return VirtualLights.empty()
     rng = LatinHypercube(rng)
     glossy = scene.materials.glossy
-    origins, dirs, power = lights.emit(count, rng, light_prob)
-    path = np.arange(first_path, first_path + count)
+    if start is None:
+        origins, dirs, power = lights.emit(count, rng, light_prob)
+        path, first_bounce = np.arange(first_path, first_path + count), 1
+    else:
+        origins, dirs, power, path, first_bounce = start
     found = []
-    for bounce in range(1, max_bounces + 1):
+    for bounce in range(first_bounce, max_bounces + 1):
         if len(origins) == 0:
             break
+        if record is not None:
+            record(bounce, origins, dirs, power, path)
         hits = tracer.intersect(origins, dirs)
         rows = np.nonzero(hits.hit)[0]
         surf = shade(scene, dirs, hits, rows)
@@ -72,7 +79,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
     return VirtualLights.concat(found)
 
 
-def trace_until(scene, tracer, lights, target: int, rng, max_bounces: int, light_prob=None):
+def trace_until(scene, tracer, lights, target: int, rng, max_bounces: int, light_prob=None, record=None):
     """Standard VPLs from as many paths as it takes to leave about ``target`` of them: (vpls, paths traced).
 
     Paths are traced in batches sized from the VPLs per path seen so far; the weights are divided by the total
@@ -81,7 +88,8 @@ def trace_until(scene, tracer, lights, target: int, rng, max_bounces: int, light
     batch = max(64, target // 4)
     while found < target and paths < 64 * target + 1024:
         count = min(batch, BATCH_PATHS)
-        parts.append(trace_paths(scene, tracer, lights, count, rng, max_bounces, light_prob, first_path=paths))
+        parts.append(trace_paths(scene, tracer, lights, count, rng, max_bounces, light_prob, first_path=paths,
+                                 record=record))
         paths += count
         found += len(parts[-1])
         if found:

@@ -42,6 +42,9 @@ class RenderSettings:
     samples: int = 64  # camera samples per pixel (G-buffer)
     light_samples: int = 8  # next-event samples per camera sample for direct light
     seed: int = 0
+    # a sequence's seed of this frame for placing lights (None: ``seed``); the pixels keep ``seed`` in every frame,
+    # as Cycles without an animated seed, so their noise does not flicker
+    placement_seed: int | None = None
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
     method: str = "vbnl"  # how virtual lights are placed: vbnl, bidir, ir, or none (no indirect light)
     indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
@@ -88,7 +91,9 @@ def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
     return np.linalg.norm(position - camera.position, axis=1) * size
 
 
-def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None) -> RenderResult:
+def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None,
+           sequence=None) -> RenderResult:
+    """One frame; ``sequence`` (a ``sequence.SequenceState``) carries the method's state from the previous frame."""
     cam = scene.camera
     w, h = cam.width, cam.height
     result = RenderResult(passes={})
@@ -98,7 +103,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     for name, count in scene.dropped.items():
         result.warnings.append(f"object {name!r}: {count} degenerate or non-finite triangles skipped")
     t0 = time.perf_counter()
-    tracer = Tracer(scene.triangles)
+    tracer = Tracer(scene.triangles) if sequence is None else sequence.begin(scene)
     lights = LightSet(scene)
     if len(lights) == 0:
         result.warnings.append("the scene has no lights: direct and indirect light are black")
@@ -118,8 +123,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     try:
         if need_indirect:
             t0 = time.perf_counter()
-            context = MethodContext(scene, tracer, lights, np.random.default_rng([settings.seed, 1 << 20]), bounces)
-            vpls, result.info = place(settings.method, context, settings.placement)
+            placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
+            context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces)
+            vpls, result.info = (place if sequence is None else sequence.place)(settings.method, context,
+                                                                                settings.placement)
             guard("place", {"VPL intensity": vpls.intensity})
             if sampled is None:
                 d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
@@ -228,7 +235,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if cancelled.is_set():
             raise Cancelled()
     finally:
-        tracer.close()
+        if sequence is None:  # a sequence keeps its BVH for the next frame
+            tracer.close()
 
     if need_indirect:
         t0 = time.perf_counter()

@@ -11,6 +11,7 @@ from vpl_addon.camera import Camera, view_window
 from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import PointLight
 from vpl_addon.methods import MethodSettings
+from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.vbnl import VBNLSettings
 from vpl_addon.render import RenderSettings
 from vpl_addon.scene import Materials, Scene
@@ -44,7 +45,8 @@ def tally(scene_name: str, result) -> int:
 
 def budget(vpls: int) -> MethodSettings:
     """A light budget with vbnl's photons and gather samples cut to the stress suite's scale."""
-    return MethodSettings(vpls=vpls, vbnl=VBNLSettings(photons=4096, sampling=SamplingSettings(samples=2)))
+    return MethodSettings(vpls=vpls, vbnl=VBNLSettings(photons=4096, sampling=SamplingSettings(samples=2)),
+                          smc=SMCSettings(warmup=8, radiosity_samples=4, camera_points=256))
 
 
 def small_settings(method: str, **overrides) -> RenderSettings:

@@ -11,9 +11,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from . import bidir, ir, vbnl
+from . import bidir, ir, smc, vbnl
 
-METHODS = {"ir": ir, "bidir": bidir, "vbnl": vbnl}
+METHODS = {"ir": ir, "bidir": bidir, "vbnl": vbnl, "smc": smc}
 
 
 @dataclass
@@ -30,6 +30,9 @@ class MethodSettings:
     vpls: int = 4096  # VPL budget: the number of lights the gather sees (bidir: kept after resampling)
     bidir: bidir.BidirSettings = field(default_factory=bidir.BidirSettings)
     vbnl: vbnl.VBNLSettings = field(default_factory=vbnl.VBNLSettings)
+    smc: smc.SMCSettings = field(default_factory=smc.SMCSettings)
+    # in a sequence, keep light paths between frames and re-trace only those that moved objects cut (Moreau et al.)
+    path_reuse: bool = True
 
 
 def place(name: str, context: MethodContext, settings: MethodSettings):

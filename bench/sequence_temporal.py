@@ -1,0 +1,111 @@
+"""Temporal error of animation bakes against per-frame Cycles references (Hedman et al., Table 1): |E| and |E'|
+after Reinhard tone mapping, tracked pixels and whole frame, for each method baked over the same frames at the same
+VPL budget.
+
+    .venv/bin/python bench/sequence_temporal.py [--scene example_blends/seq_moving_light.blend] [--frames 1:24]
+        [--run LABEL=METHOD[ FLAGS] ...] [--vpls 1024] [--reference-samples 256] [--out out/sequence]
+
+    e.g. the path reuse of ir on the moving block:
+    .venv/bin/python bench/sequence_temporal.py --scene example_blends/seq_moving_object.blend \\
+        --run reuse=ir --run "retrace=ir --no-path-reuse"
+
+References are rendered once per frame through ``python -m vpl_addon reference`` and cached by hash (the default
+cache ~/.cache/vpl_gi); bakes go through ``python -m vpl_addon bake`` (so a method that keeps state, smc, carries it;
+ir keeps its light paths and re-traces those that moved objects cut, the others place their lights again in
+every frame in which something moved). Prints a Markdown table and
+writes ``results.json`` in the output folder.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import re
+import shutil
+import subprocess
+import sys
+import time
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, ROOT)
+
+
+def cli(*args):
+    proc = subprocess.run([sys.executable, "-m", "vpl_addon", *map(str, args)], cwd=ROOT, capture_output=True,
+                          text=True, env={**os.environ, "PYTHONPATH": ROOT})
+    if proc.returncode != 0:
+        raise SystemExit(f"{' '.join(map(str, args))} failed: {proc.stderr.strip()}")
+    return proc.stdout
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--scene", default=os.path.join(ROOT, "example_blends", "seq_moving_light.blend"))
+    p.add_argument("--frames", default="1:24")
+    p.add_argument("--run", action="append", metavar="LABEL=METHOD[ FLAGS]",
+                   help="a bake to measure, e.g. 'retrace=ir --no-path-reuse' (repeatable; default smc and bidir)")
+    p.add_argument("--vpls", type=int, default=1024)
+    p.add_argument("--samples", type=int, default=4)
+    p.add_argument("--light-samples", type=int, default=4)
+    p.add_argument("--reference-samples", type=int, default=256)
+    p.add_argument("--percentage", type=int, help="resolution percentage of references and bakes (default: the "
+                                                   "scene's)")
+    p.add_argument("--extra", default="", help="more bake flags, e.g. '--smc-warmup 20'")
+    p.add_argument("--out", default=os.path.join(ROOT, "out", "sequence"))
+    args = p.parse_args(argv)
+    first, last = (int(v) for v in args.frames.split(":"))
+    stem = os.path.splitext(os.path.basename(args.scene))[0]
+    refs = os.path.join(args.out, f"{stem}_references_{args.reference_samples}spp")
+    os.makedirs(refs, exist_ok=True)
+    t0 = time.perf_counter()
+    for frame in range(first, last + 1):
+        target = os.path.join(refs, f"frame_{frame:04d}.exr")
+        if not os.path.exists(target):
+            cli("reference", args.scene, "--frame", frame, "--samples", args.reference_samples, "-o", target,
+                *(["--percentage", args.percentage] if args.percentage else []))
+    print(f"references: {time.perf_counter() - t0:.0f} s", flush=True)
+
+    from vpl_addon.compare import compare_sequences
+    results = {}
+    runs = args.run or ["smc=smc", "bidir=bidir"]
+    for run in runs:
+        label, _, spec = run.partition("=")
+        method, *flags = spec.split()
+        folder = os.path.join(args.out, f"{stem}_{label}_{args.vpls}")
+        shutil.rmtree(folder, ignore_errors=True)  # a fresh bake (the same settings would resume the old one)
+        t0 = time.perf_counter()
+        log = cli("bake", args.scene, "--frames", args.frames, "-o", folder, "--method", method, "--vpls", args.vpls,
+                  "--samples", args.samples, "--light-samples", args.light_samples, "--overwrite",
+                  *flags, *args.extra.split(), *(["--percentage", args.percentage] if args.percentage else []))
+        seconds = time.perf_counter() - t0
+        result = compare_sequences(folder, refs)["Diffuse Indirect"]
+        result["bake_seconds"] = round(seconds, 1)
+        result["log"] = log.splitlines()
+        result["light_path_rays"] = [int(m.group(1)) for m in re.finditer(r"light paths \((\d+) rays\)", log)]
+        results[label] = result
+        print(f"{label}: {seconds:.0f} s", flush=True)
+    with open(os.path.join(args.out, f"{stem}_results.json"), "w") as f:
+        json.dump(results, f, indent=1)
+    print(f"\n{stem}, frames {args.frames}, {args.percentage or 100} %, {args.vpls} VPLs, {args.samples} spp, "
+          f"Cycles {args.reference_samples} "
+          f"spp per frame (Diffuse Indirect, Reinhard tone mapped luminance)\n")
+    print("| run | mean abs E, tracked | mean abs E', tracked | mean abs E, frame | mean abs E', frame | "
+          "rMAE (mean of frames) | light-path rays per frame, frames 2.. | bake s |")
+    print("|---|---|---|---|---|---|---|---|")
+    for label, r in results.items():
+        rmae = sum(r["rmae_per_frame"]) / len(r["rmae_per_frame"])
+        rays = r["light_path_rays"][1:]
+        per_frame = f"{sum(rays) / len(rays):.0f}" if rays else "-"
+        print(f"| {label} | {r['tracked']['E']:.4f} | {r['tracked']['E_prime']:.4f} | {r['frame']['E']:.4f} | "
+              f"{r['frame']['E_prime']:.4f} | {rmae:.3f} | {per_frame} | {r['bake_seconds']:.0f} |")
+    labels = list(results)
+    if len(labels) == 2 and all(results[l]["light_path_rays"][1:] for l in labels):
+        a, b = (results[l] for l in labels)
+        ratio = [rb / max(ra, 1) for ra, rb in zip(a["light_path_rays"][1:], b["light_path_rays"][1:])]
+        rel = [ea / eb for ea, eb in zip(a["rmae_per_frame"], b["rmae_per_frame"])]
+        print(f"\n{labels[1]} / {labels[0]} light-path rays per frame (frames 2..): mean {sum(ratio) / len(ratio):.1f}x, "
+              f"min {min(ratio):.1f}x; rMAE {labels[0]} / {labels[1]} per frame: {min(rel):.3f} .. {max(rel):.3f}")
+
+
+if __name__ == "__main__":
+    main()

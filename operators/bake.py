@@ -1,0 +1,342 @@
+"""Baking a frame range to one multilayer EXR per frame, carrying each method's state from frame to frame.
+
+The unit a render farm splits is a frame range; ``bake`` renders one, in order, through the engine (so the files
+are exactly what F12 or ``blender -b -a`` would write) with a ``sequence.SequenceState`` that the engine picks up
+(``active_sequence``). Every frame appears atomically (``output.render_to``: a ``.partial-<pid>-`` file renamed into
+place), then the state after that frame is saved atomically under ``.bake-state/`` in the output folder. A bake
+started again over the same folder and settings skips the finished frames and continues from the last saved state,
+so it writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``,
+its pixels use ``seed`` in every frame as Cycles does without an animated seed; the EXR
+header carries no date or render time). A range that starts cold, with no saved state before it, warms the state up
+first (the methods' ``start``), so chunks of one range can be rendered on different machines.
+
+``bake.json`` in the folder records the settings; a folder that holds a bake of other settings is refused unless
+``overwrite`` is given, so nothing the user had is replaced without asking.
+"""
+from __future__ import annotations
+
+import glob
+import json
+import os
+import re
+import tempfile
+from dataclasses import dataclass, field
+from typing import Callable
+
+import bpy
+
+from ..vpl_addon.sequence import SequenceState, frame_seed
+
+MANIFEST = "bake.json"
+STATE_DIR = ".bake-state"
+FRAME_NAME = "frame_{:04d}.exr"
+
+# The state the engine uses for the frame being rendered: set by ``Bake`` around each frame; for
+# ``blender -b -a`` (``render(animation=True)``) the engine keeps one per scene and settings in ``_ANIMATION``.
+_ACTIVE: SequenceState | None = None
+_ANIMATION: dict[str, tuple[SequenceState, int]] = {}  # key -> (state, last frame)
+# Frames rendered with a sequence state, as the engine reports them (frame, light paths, reused, BVH builds).
+FRAME_LOG: list[dict] = []
+
+
+class BakeError(RuntimeError):
+    """A problem with the bake's input or output folder; the message explains it."""
+
+
+def settings_key(scene) -> dict:
+    """Everything about the scene's settings that changes the baked pixels (not the frame range)."""
+    props = scene.vpl_gi
+    values = {p.identifier: getattr(props, p.identifier) for p in props.bl_rna.properties
+              if p.identifier not in {"rna_type", "name", "bake_directory", "bake_overwrite"}}
+    r = scene.render
+    values.update(resolution=[r.resolution_x, r.resolution_y, r.resolution_percentage])
+    return values
+
+
+def active_sequence(scene, settings, is_animation: bool):
+    """(sequence state or None, the seed for placing lights) for the frame the engine is about to render: in a
+    sequence ``frame_seed(seed, frame)``, so a frame's lights do not depend on where the bake started."""
+    if _ACTIVE is not None:
+        return _ACTIVE, frame_seed(settings.seed, scene.frame_current)
+    if is_animation:
+        key = json.dumps([scene.name, settings_key(scene)], sort_keys=True, default=str)
+        if key not in _ANIMATION or _ANIMATION[key][1] >= scene.frame_current:
+            for old, _ in _ANIMATION.values():  # a new animation render: start cold
+                old.close()
+            _ANIMATION.clear()
+            _ANIMATION[key] = (SequenceState(settings.method), scene.frame_current)
+        state = _ANIMATION[key][0]
+        _ANIMATION[key] = (state, scene.frame_current)
+        return state, frame_seed(settings.seed, scene.frame_current)
+    return None, None
+
+
+def frame_path(out_dir: str, frame: int) -> str:
+    return os.path.join(out_dir, FRAME_NAME.format(frame))
+
+
+def _state_path(out_dir: str, frame: int) -> str:
+    return os.path.join(out_dir, STATE_DIR, f"frame_{frame:04d}.pkl")
+
+
+def saved_state_frames(out_dir: str) -> list[int]:
+    found = []
+    for path in glob.glob(os.path.join(glob.escape(out_dir), STATE_DIR, "frame_*.pkl")):
+        m = re.fullmatch(r"frame_(-?\d+)\.pkl", os.path.basename(path))
+        if m:
+            found.append(int(m.group(1)))
+    return sorted(found)
+
+
+def _write_atomic(path: str, data: bytes) -> None:
+    folder = os.path.dirname(path)
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".partial-{os.getpid()}-", suffix=".pkl", dir=folder)
+    try:
+        with os.fdopen(fd, "wb") as f:
+            f.write(data)
+            f.flush()
+            os.fsync(f.fileno())
+        os.replace(tmp, path)
+    finally:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+
+
+@dataclass
+class BakeReport:
+    rendered: list[int] = field(default_factory=list)
+    skipped: list[int] = field(default_factory=list)  # already finished by an earlier run
+    resumed_from: int | None = None  # the frame whose saved state the bake continued from
+    frames: list[dict] = field(default_factory=list)  # per rendered frame: light paths, rays, reused, seconds
+
+
+class Bake:
+    """Render ``frames`` of ``scene`` (its engine must be VPL GI) into ``out_dir``."""
+
+    def __init__(self, scene, out_dir: str, frames: range, overwrite: bool = False):
+        if len(frames) == 0:
+            raise BakeError(f"the frame range {frames.start}:{frames.stop - 1} is empty")
+        self.scene, self.out_dir, self.frames = scene, os.path.abspath(out_dir), frames
+        self.key = settings_key(scene)
+        self.report = BakeReport()
+        self._check_folder(overwrite)
+
+    def _check_folder(self, overwrite: bool) -> None:
+        if os.path.exists(self.out_dir) and not os.path.isdir(self.out_dir):
+            raise BakeError(f"{self.out_dir} is a file; the bake needs a folder")
+        os.makedirs(self.out_dir, exist_ok=True)
+        manifest = os.path.join(self.out_dir, MANIFEST)
+        if os.path.exists(manifest):
+            try:
+                with open(manifest) as f:
+                    stored = json.load(f)
+            except (OSError, ValueError):
+                stored = None
+            if stored != json.loads(json.dumps(self.key, default=str)):
+                if not overwrite:
+                    raise BakeError(f"{self.out_dir} holds a bake with other settings; pass --overwrite to "
+                                    f"replace it (or choose another folder)")
+                self._clear()
+        elif not overwrite:
+            taken = [f for f in self.frames if os.path.exists(frame_path(self.out_dir, f))]
+            if taken:
+                raise BakeError(f"{frame_path(self.out_dir, taken[0])} exists and is not from a bake; pass "
+                                f"--overwrite to replace it")
+        elif overwrite:
+            self._clear()
+        _write_atomic(manifest, json.dumps(self.key, sort_keys=True, default=str, indent=1).encode())
+
+    def _clear(self) -> None:
+        for f in self.frames:
+            for path in (frame_path(self.out_dir, f), _state_path(self.out_dir, f)):
+                if os.path.exists(path):
+                    os.unlink(path)
+        for f in saved_state_frames(self.out_dir):
+            os.unlink(_state_path(self.out_dir, f))
+
+    def run(self, progress: Callable[[float, str], bool] | None = None,
+            render_frame: Callable[[str], None] | None = None) -> BakeReport:
+        """Render the unfinished frames in order; ``progress(fraction, text)`` returning False stops after the
+        current frame. ``render_frame(path)`` renders the scene's current frame to ``path`` atomically."""
+        steps = self.steps(render_frame)
+        try:
+            for fraction, frame in steps:
+                if progress is not None and progress(fraction, f"frame {frame}") is False:
+                    break
+        finally:
+            steps.close()
+        return self.report
+
+    def steps(self, render_frame: Callable[[str], None] | None = None):
+        """The bake one frame at a time (for a modal operator): yields (fraction done, frame) after each frame it
+        renders; closing the generator ends the bake cleanly after the last finished frame."""
+        global _ACTIVE
+        from . import engine
+        from .output import render_to
+        render_frame = render_frame or (lambda path: render_to(self.scene, path))
+        report = self.report = BakeReport()
+        scene = self.scene
+        saved = saved_state_frames(self.out_dir)
+        state: SequenceState | None = None
+        stamps = {name: getattr(scene.render, name) for name in ("use_stamp_date", "use_stamp_render_time")}
+        original_frame = scene.frame_current
+        try:
+            for name in stamps:  # no wall-clock values in the EXR header: a resumed bake writes the same bytes
+                setattr(scene.render, name, False)
+            for number, frame in enumerate(self.frames):
+                if os.path.exists(frame_path(self.out_dir, frame)) and any(g >= frame for g in saved):
+                    report.skipped.append(frame)
+                    continue
+                if state is None:
+                    previous = _state_path(self.out_dir, frame - 1)
+                    if os.path.exists(previous):
+                        with open(previous, "rb") as f:
+                            state = SequenceState.loads(f.read())
+                        report.resumed_from = frame - 1
+                    else:
+                        state = SequenceState(scene.vpl_gi.method)
+                scene.frame_set(frame)
+                _ACTIVE = state
+                try:
+                    render_frame(frame_path(self.out_dir, frame))
+                finally:
+                    _ACTIVE = None
+                _write_atomic(_state_path(self.out_dir, frame), state.dumps())
+                if os.path.exists(_state_path(self.out_dir, frame - 1)):
+                    os.unlink(_state_path(self.out_dir, frame - 1))
+                stats = dict(engine.LAST_STATS)
+                info = stats.get("info", {})
+                report.rendered.append(frame)
+                report.frames.append({"frame": frame, "light_paths": info.get("light_paths"),
+                                      "light_path_rays": info.get("light_path_rays"),
+                                      "reused": bool(info.get("reused")), "rays": stats.get("rays"),
+                                      "bvh_builds": state.bvh_builds,
+                                      "seconds": sum(stats.get("seconds", {}).values())})
+                yield (number + 1) / len(self.frames), frame
+        finally:
+            _ACTIVE = None
+            if state is not None:
+                state.close()
+            for name, value in stamps.items():
+                setattr(scene.render, name, value)
+            scene.frame_set(original_frame)
+
+
+def _engine_error():
+    from . import engine
+    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
+    if errors:
+        raise BakeError(errors[0])
+
+
+class VPLGI_OT_bake_sequence(bpy.types.Operator):
+    """Render the scene's frame range with VPL GI to one multilayer EXR per frame, carrying the method's state
+    from frame to frame; a bake started again continues after its last finished frame"""
+    bl_idname = "vpl_gi.bake_sequence"
+    bl_label = "Bake Indirect Sequence"
+    bl_options = {"REGISTER"}
+
+    _steps = None
+    _timer = None
+
+    @classmethod
+    def poll(cls, context):
+        return context.scene is not None and context.scene.render.engine == "VPL_GI"
+
+    def _start(self, context):
+        scene = context.scene
+        folder = bpy.path.abspath(scene.vpl_gi.bake_directory)
+        if not folder:
+            raise BakeError("set the bake folder first")
+        bake = Bake(scene, folder, range(scene.frame_start, scene.frame_end + 1),
+                    overwrite=scene.vpl_gi.bake_overwrite)
+        from .output import render_to
+        return bake, bake.steps(lambda path: render_to(scene, path, _engine_error))
+
+    def execute(self, context):  # scripts and background mode: the whole range, blocking
+        try:
+            bake, steps = self._start(context)
+            for _ in steps:
+                pass
+        except (BakeError, OSError, RuntimeError) as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        self.report({"INFO"}, f"baked {len(bake.report.rendered)} frames to {bake.out_dir}")
+        return {"FINISHED"}
+
+    def invoke(self, context, event):  # the UI: one frame per timer tick, progress on the cursor, ESC stops
+        try:
+            self._bake, self._steps = self._start(context)
+        except (BakeError, OSError) as err:
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        wm = context.window_manager
+        wm.progress_begin(0, len(self._bake.frames))
+        self._timer = wm.event_timer_add(0.05, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        if event.type == "ESC":
+            self._finish(context)
+            self.report({"WARNING"}, f"bake stopped after {len(self._bake.report.rendered)} frames; bake again "
+                                     f"to continue")
+            return {"CANCELLED"}
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            fraction, frame = next(self._steps)
+        except StopIteration:
+            self._finish(context)
+            self.report({"INFO"}, f"baked {len(self._bake.report.rendered)} frames to {self._bake.out_dir}")
+            return {"FINISHED"}
+        except (BakeError, OSError, RuntimeError) as err:
+            self._finish(context)
+            self.report({"ERROR"}, str(err))
+            return {"CANCELLED"}
+        context.window_manager.progress_update(int(round(fraction * len(self._bake.frames))))
+        context.workspace.status_text_set(f"VPL GI bake: frame {frame} done ({fraction * 100:.0f} %), ESC to stop")
+        return {"RUNNING_MODAL"}
+
+    def _finish(self, context):
+        self._steps.close()
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        context.workspace.status_text_set(None)
+
+
+class RENDER_PT_vpl_gi_bake(bpy.types.Panel):
+    bl_label = "Bake Sequence"
+    bl_space_type = "PROPERTIES"
+    bl_region_type = "WINDOW"
+    bl_context = "render"
+    bl_parent_id = "RENDER_PT_vpl_gi"
+    COMPAT_ENGINES = {"VPL_GI"}
+
+    @classmethod
+    def poll(cls, context):
+        return context.engine in cls.COMPAT_ENGINES
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.vpl_gi
+        layout.prop(settings, "bake_directory")
+        layout.prop(settings, "bake_overwrite")
+        layout.label(text=f"Frames {context.scene.frame_start} to {context.scene.frame_end}")
+        layout.operator(VPLGI_OT_bake_sequence.bl_idname, icon="RENDER_ANIMATION")
+
+
+CLASSES = (VPLGI_OT_bake_sequence, RENDER_PT_vpl_gi_bake)
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+
+
+def unregister():
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

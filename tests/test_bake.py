@@ -1,0 +1,167 @@
+"""Baking a frame range through Blender: ``python -m vpl_addon bake``, ``render(animation=True)`` (what
+``blender -b -a`` runs), resuming after SIGKILL, and the bake's care for the output folder."""
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+
+from conftest import EXAMPLES, ROOT, run_cli
+
+SMALL = ("--percentage", "25", "--samples", "2", "--light-samples", "2", "--vpls", "128")
+
+
+def frames_in(folder):
+    return sorted(p.name for p in folder.glob("frame_*.exr"))
+
+
+def test_a_static_bake_traces_light_paths_in_frame_one_only_and_resumes_by_skipping(tmp_path):
+    out = tmp_path / "bake"
+    code, stdout, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:3", "-o", out,
+                                   "--method", "bidir", *SMALL)
+    assert code == 0, stderr
+    lines = [l for l in stdout.splitlines() if l.startswith("frame ")]
+    assert len(lines) == 3 and " 0 light paths" not in lines[0]
+    assert all(" 0 light paths (reused)" in l for l in lines[1:])
+    assert frames_in(out) == ["frame_0001.exr", "frame_0002.exr", "frame_0003.exr"]
+    assert not list(out.glob(".partial-*"))
+    from vpl_addon.exr import read_passes
+    first, _ = read_passes(out / "frame_0001.exr")
+    third, _ = read_passes(out / "frame_0003.exr")
+    assert {"Combined", "Diffuse Indirect", "Diffuse Direct", "Diffuse Color"} <= set(third)
+    a, b = first["Diffuse Indirect"], third["Diffuse Indirect"]
+    np.testing.assert_array_equal(a, b)  # a static frame renders exactly as frame 1
+    before = {p: p.stat().st_mtime_ns for p in out.glob("frame_*.exr")}
+    code, stdout, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:3", "-o", out,
+                                   "--method", "bidir", *SMALL)
+    assert code == 0 and "skipped 3 finished frames" in stdout and "baked 0 frames" in stdout, stdout + stderr
+    assert before == {p: p.stat().st_mtime_ns for p in out.glob("frame_*.exr")}
+
+
+def test_a_folder_with_another_bake_or_foreign_frames_is_not_overwritten_without_asking(tmp_path):
+    out = tmp_path / "bake"
+    out.mkdir()
+    (out / "frame_0001.exr").write_bytes(b"precious")
+    code, _, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:1", "-o", out, *SMALL,
+                              "--method", "ir")
+    assert code != 0 and "frame_0001.exr exists" in stderr and (out / "frame_0001.exr").read_bytes() == b"precious"
+    (out / "frame_0001.exr").unlink()
+    assert run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:1", "-o", out, *SMALL, "--method",
+                   "ir")[0] == 0
+    code, _, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:1", "-o", out, *SMALL,
+                              "--method", "bidir")
+    assert code != 0 and "other settings" in stderr
+    code, _, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "3:1", "-o", out)
+    assert code != 0 and "before the first" in stderr
+
+
+def test_killed_bake_resumes_to_the_same_files_as_an_uninterrupted_one(tmp_path):
+    """SIGKILL in the middle of a frame: no partial EXR carries a final name; started again, the bake continues
+    from the saved state and writes byte for byte what an uninterrupted bake writes."""
+    args = ["bake", str(EXAMPLES / "seq_moving_light.blend"), "--frames", "1:8", "--method", "bidir",
+            "--percentage", "50", "--samples", "4", "--light-samples", "2", "--vpls", "256"]
+    whole, killed = tmp_path / "whole", tmp_path / "killed"
+    proc = subprocess.Popen([sys.executable, "-m", "vpl_addon", *args, "-o", str(killed)], cwd=ROOT,
+                            env={**os.environ, "PYTHONPATH": str(ROOT)}, stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL)
+    try:
+        deadline = time.monotonic() + 300
+        while proc.poll() is None and time.monotonic() < deadline and not (
+                (killed / "frame_0003.exr").exists() and list(killed.glob(".partial-*.exr"))):
+            time.sleep(0.01)
+        assert proc.poll() is None, "the bake ended before it could be killed"
+        proc.send_signal(signal.SIGKILL)
+    finally:
+        proc.kill()
+        proc.wait()
+    assert proc.returncode == -signal.SIGKILL
+    done = frames_in(killed)
+    assert 3 <= len(done) < 8
+    from vpl_addon.exr import read_passes
+    for name in done:  # every file under a final name is a whole image
+        assert read_passes(killed / name)[0]["Combined"].shape == (64, 64, 4)
+    code, stdout, stderr = run_cli(*args, "-o", killed)
+    assert code == 0, stderr
+    assert f"skipped {len(done)} finished frames, resumed from the state after frame {len(done)}" in stdout
+    code, _, stderr = run_cli(*args, "-o", whole)
+    assert code == 0, stderr
+    assert frames_in(killed) == frames_in(whole) == [f"frame_{f:04d}.exr" for f in range(1, 9)]
+    for name in frames_in(whole):
+        assert (killed / name).read_bytes() == (whole / name).read_bytes(), name
+    assert not list(killed.glob(".partial-*")) and not list((killed / ".bake-state").glob(".partial-*"))
+
+
+def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
+    """``blender -b scene.blend -E VPL_GI -s 1 -e 3 -a`` renders through the same engine: frames 2 and 3 of a
+    static scene reuse frame 1's lights; the frames of a moving light are placed again."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    for blend, reused in (("cornell_area", [False, True, True]), ("seq_moving_light", [False, False, False])):
+        bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / f"{blend}.blend"))
+        scene = bpy.context.scene
+        scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+        scene.render.resolution_percentage = 25
+        scene.vpl_gi.method, scene.vpl_gi.vpls, scene.vpl_gi.samples = "ir", 128, 1
+        scene.frame_start, scene.frame_end = 1, 3
+        scene.render.filepath = str(tmp_path / f"{blend}_")
+        bake.FRAME_LOG.clear()
+        bpy.ops.render.render(animation=True)
+        log = bake.FRAME_LOG
+        assert [e["frame"] for e in log] == [1, 2, 3]
+        assert [e["reused"] for e in log] == reused
+        assert [e["light_paths"] == 0 for e in log] == reused
+        assert log[-1]["bvh_builds"] == 1
+
+
+def _small_scene(bpy, engine, blend):
+    bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / f"{blend}.blend"))
+    scene = bpy.context.scene
+    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+    scene.render.resolution_percentage = 25
+    scene.vpl_gi.method, scene.vpl_gi.vpls, scene.vpl_gi.samples, scene.vpl_gi.light_samples = "bidir", 128, 1, 1
+    return scene
+
+
+def test_bake_operator_renders_the_frame_range_and_stopping_keeps_what_is_done(ext, tmp_path):
+    """The render panel's "Bake Indirect Sequence" bakes frame_start..frame_end into the bake folder; a bake stopped
+    after a frame (ESC) continues from that frame's state when started again."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    scene = _small_scene(bpy, engine, "seq_moving_light")
+    scene.frame_start, scene.frame_end = 3, 5
+    scene.vpl_gi.bake_directory = str(tmp_path / "op")
+    assert bpy.ops.vpl_gi.bake_sequence() == {"FINISHED"}
+    assert frames_in(tmp_path / "op") == ["frame_0003.exr", "frame_0004.exr", "frame_0005.exr"]
+    assert scene.frame_current == 1 and scene.render.use_stamp_date  # the user's scene is as it was
+
+    stopped = bake.Bake(scene, str(tmp_path / "esc"), range(3, 6))
+    report = stopped.run(progress=lambda fraction, text: False)  # ESC after the first frame
+    assert report.rendered == [3] and frames_in(tmp_path / "esc") == ["frame_0003.exr"]
+    report = bake.Bake(scene, str(tmp_path / "esc"), range(3, 6)).run()
+    assert report.skipped == [3] and report.resumed_from == 3 and report.rendered == [4, 5]
+    for name in frames_in(tmp_path / "op"):
+        assert (tmp_path / "op" / name).read_bytes() == (tmp_path / "esc" / name).read_bytes()
+
+
+def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path):
+    """smc (its VPL set) and ir (its kept light paths, verified against the moving block) resume from the saved
+    state exactly where an uninterrupted bake would be."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    for method in ("smc", "ir"):
+        scene = _small_scene(bpy, engine, "seq_moving_object")
+        scene.vpl_gi.method, scene.vpl_gi.smc_warmup = method, 3
+        whole = bake.Bake(scene, str(tmp_path / f"{method}_whole"), range(1, 4)).run()
+        assert whole.rendered == [1, 2, 3]
+        if method == "ir":
+            paths = [e["light_paths"] for e in whole.frames]
+            assert 0 < paths[1] < paths[0] and 0 < paths[2] < paths[0]  # only the paths the block cuts
+        folder = str(tmp_path / f"{method}_resumed")
+        bake.Bake(scene, folder, range(1, 4)).run(progress=lambda fraction, text: False)
+        report = bake.Bake(scene, folder, range(1, 4)).run()
+        assert report.resumed_from == 1 and report.rendered == [2, 3]
+        for name in frames_in(tmp_path / f"{method}_whole"):
+            assert (tmp_path / f"{method}_whole" / name).read_bytes() == (tmp_path / f"{method}_resumed" /
+                                                                         name).read_bytes(), (method, name)

@@ -1,0 +1,97 @@
+"""Light paths kept between frames and verified against moved objects (Moreau et al.), without Blender."""
+import numpy as np
+import pytest
+
+from conftest import plane_scene
+from vpl_addon.gather import GatherSettings
+from vpl_addon.lights import LightSet, PointLight
+from vpl_addon.methods import MethodSettings
+from vpl_addon.motion import Motion, Snapshot
+from vpl_addon.path_verification import LightPathStore, segments_crossing_boxes
+from vpl_addon.render import RenderSettings, render
+from vpl_addon.scene import Scene
+from vpl_addon.sequence import SequenceState, frame_seed
+from vpl_addon.tracer import Tracer
+
+BOX = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
+FACES = [(0, 2, 1), (0, 3, 2), (4, 5, 6), (4, 6, 7), (0, 1, 5), (0, 5, 4), (1, 2, 6), (1, 6, 5), (2, 3, 7),
+         (2, 7, 6), (3, 0, 4), (3, 4, 7)]
+
+
+def test_segments_crossing_boxes():
+    box = [(np.zeros(3), np.ones(3))]
+    origin = np.array([[-1, 0.5, 0.5], [-1, 0.5, 0.5], [-1, 0.5, 0.5], [-1, 2.0, 0.5], [0.5, 0.5, 0.5],
+                       [-1, 0.5, 0.5], [-1, 0.0, 0.5]])
+    direction = np.array([[1, 0, 0], [1, 0, 0], [-1, 0, 0], [1, 0, 0], [0, 0, 1], [1, 0, 0], [1, 0, 0]], float)
+    length = np.array([3.0, 0.5, np.inf, np.inf, 0.1, 1.0, 5.0])
+    # through; stops short; points away; misses beside; starts inside; ends on the face; grazes the face y = 0
+    assert segments_crossing_boxes(origin, direction, length, box).tolist() == [True, False, False, False, True,
+                                                                              True, True]
+    assert segments_crossing_boxes(origin, direction, length, []).tolist() == [False] * 7
+
+
+def room_with_block(offset=0.0):
+    """A floor and a back wall lit by a lamp, with a 0.4 m block (object "Block") standing at x = offset."""
+    base = plane_scene([PointLight("lamp", [0, 0, 2.5], [300.0] * 3)], size=3, view=4.0, res=16)
+    wall = np.array([[[-3, 2, 0], [3, 2, 0], [3, 2, 4]], [[-3, 2, 0], [3, 2, 4], [-3, 2, 4]]], float)
+    block = (BOX * 0.4 + [offset - 0.2, 0.5, 0])[np.array(FACES)]
+    tri = np.concatenate([base.triangles, wall, block])
+    ids = [0, 0, 1, 1] + [2] * len(block)
+    return Scene.build(tri, base.materials, base.lights, base.camera, object_id=ids,
+                       object_names=["Floor", "Wall", "Block"], max_bounces=3)
+
+
+def test_verification_retraces_only_paths_the_moved_block_cuts():
+    before, after = room_with_block(0.0), room_with_block(0.3)
+    motion = Motion.between(Snapshot.of(before), Snapshot.of(after))
+    assert motion.moved_objects == ["Block"]
+    store = LightPathStore()
+    tracer = Tracer(before.triangles)
+    store.trace(before, tracer, LightSet(before), 4000, np.random.default_rng(0), 3)
+    full_rays, paths = store.rays_last_frame, store.paths
+    tracer.close()
+    tracer = Tracer(after.triangles)
+    try:
+        retraced = store.verify(after, tracer, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6)
+        assert 0 < retraced < paths / 4 and 0 < store.rays_last_frame < full_rays / 3
+        assert store.paths == paths
+        lo, hi = motion.boxes[1]
+        on_new = ((store.vpls.position >= lo - 1e-6) & (store.vpls.position <= hi + 1e-6)).all(axis=1)
+        assert on_new.any()  # the re-traced paths found the block where it is now
+        lo, hi = motion.boxes[0]
+        in_old = ((store.vpls.position >= lo + 1e-3) & (store.vpls.position <= hi - 1e-3)).all(axis=1)
+        assert not (in_old & ~on_new).any()  # nothing floats where the block was
+        assert len(np.unique(store.vpls.path)) <= paths and store.vpls.path.max() < paths
+        assert store.verify(after, tracer, LightSet(after), [], np.random.default_rng(2), 3) == 0
+        assert store.rays_last_frame == 0
+    finally:
+        tracer.close()
+
+
+def test_ir_in_a_sequence_reuses_paths_and_lights_like_a_full_retrace():
+    """Frame 2 (the block moved): ir with path reuse traces a fraction of the rays of a full re-trace and lights
+    the scene the same (the same mean within noise)."""
+    settings = dict(samples=2, light_samples=0, method="ir", passes=("Combined", "Diffuse Indirect"),
+                    gather=GatherSettings(interleave=1, clamp=0.0))
+    results = {}
+    for reuse in (True, False):
+        state = SequenceState("ir")
+        first = render(room_with_block(0.0), RenderSettings(**settings, seed=frame_seed(0, 1), placement=MethodSettings(
+            vpls=3000, path_reuse=reuse)), sequence=state)
+        second = render(room_with_block(0.3), RenderSettings(**settings, seed=frame_seed(0, 2),
+                                                             placement=MethodSettings(vpls=3000, path_reuse=reuse)),
+                        sequence=state)
+        third = render(room_with_block(0.3), RenderSettings(**settings, seed=frame_seed(0, 3),
+                                                            placement=MethodSettings(vpls=3000, path_reuse=reuse)),
+                       sequence=state)
+        assert third.info["light_paths"] == 0 and third.info["light_path_rays"] == 0  # nothing moved
+        results[reuse] = (first, second)
+        state.close()
+    full = results[False][1].info
+    reused = results[True][1].info
+    assert full["light_paths"] == full["paths_kept"] and 0 < reused["light_paths"] < full["light_paths"]
+    assert reused["light_path_rays"] * 3 < full["light_path_rays"]
+    a = results[True][1].passes["Diffuse Indirect"]
+    b = results[False][1].passes["Diffuse Indirect"]
+    assert np.isfinite(a).all() and (a >= 0).all()
+    assert a.mean() == pytest.approx(b.mean(), rel=0.1)

@@ -1,0 +1,117 @@
+"""Sequences without Blender: motion between frames, the static-frame rule, the state's persistence."""
+import numpy as np
+import pytest
+
+from conftest import plane_scene
+from vpl_addon.gather import GatherSettings
+from vpl_addon.lights import PointLight
+from vpl_addon.methods import METHODS, MethodSettings
+from vpl_addon.methods.smc import SMCSettings
+from vpl_addon.methods.vbnl import VBNLSettings
+from vpl_addon.motion import Motion, Snapshot
+from vpl_addon.render import RenderSettings, render
+from vpl_addon.scene import Scene
+from vpl_addon.sequence import SequenceState, frame_seed
+
+WALL = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
+
+
+def lamp_scene(light_at=(0, 0.5, 1), wall_shift=0.0):
+    """A floor and a wall (object 1) lit by a lamp: indirect light on the floor comes off the wall."""
+    base = plane_scene([PointLight("lamp", list(light_at), [100.0] * 3)], size=5, view=1.0, res=12)
+    tri = np.concatenate([base.triangles, WALL + [0, wall_shift, 0]])
+    return Scene.build(tri, base.materials, base.lights, base.camera, object_id=[0, 0, 1, 1],
+                       object_names=["Floor", "Wall"], max_bounces=2)
+
+
+def settings(method, placement_seed=None):
+    return RenderSettings(samples=2, light_samples=1, method=method, placement_seed=placement_seed, passes=("Combined", "Diffuse Indirect"),
+                          placement=MethodSettings(vpls=128, vbnl=VBNLSettings(photons=4096),
+                                                   smc=SMCSettings(warmup=3, radiosity_samples=4, camera_points=256)),
+                          gather=GatherSettings(interleave=2))
+
+
+def test_motion_names_what_moved():
+    still = Snapshot.of(lamp_scene())
+    assert Motion.between(still, Snapshot.of(lamp_scene())).static()
+    assert Motion.between(None, still).first and not Motion.between(None, still).static()
+    moved = Motion.between(still, Snapshot.of(lamp_scene(wall_shift=0.25)))
+    assert moved.moved_objects == ["Wall"] and not moved.lights_changed and not moved.static()
+    lo, hi = moved.boxes[0]
+    assert lo[1] == pytest.approx(1.0) and moved.boxes[1][0][1] == pytest.approx(1.25)
+    lit = Motion.between(still, Snapshot.of(lamp_scene(light_at=(0, 0.4, 1))))
+    assert lit.lights_changed and lit.changed_lights == [0] and not lit.moved_objects
+    assert not lit.static(view_dependent=False)
+
+
+def test_frame_seeds_differ_per_frame_and_repeat():
+    assert frame_seed(0, 1) == frame_seed(0, 1) != frame_seed(0, 2) != frame_seed(1, 2)
+    assert 0 <= frame_seed(3, -5) < 2 ** 31
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_a_static_sequence_traces_no_light_paths_after_frame_one(method):
+    """Nothing moves: frames 2..N reuse frame 1's lights (no light path, no BVH build) and their images equal
+    frame 1's exactly (the pixels are sampled with the same seed in every frame, as Cycles does)."""
+    state = SequenceState(method)
+    results = [render(lamp_scene(), settings(method, frame_seed(0, f)), sequence=state) for f in (1, 2, 3)]
+    first_cost = results[0].info["light_paths"] or results[0].info.get("sampling_rays", 0)
+    assert first_cost > 0 and not results[0].info.get("reused")
+    for later in results[1:]:
+        assert later.info["light_paths"] == 0 and later.info.get("reused")
+        assert later.info.get("sampling_rays", 0) == 0
+    assert state.bvh_builds == 1
+    first = results[0].passes["Diffuse Indirect"]
+    for later in results[1:]:
+        image = later.passes["Diffuse Indirect"]
+        assert np.isfinite(image).all() and (image >= 0).all()
+        np.testing.assert_array_equal(image, first)  # the same lights, pixel samples and gather order
+    state.close()
+
+
+def test_a_moving_light_is_placed_again_and_a_moving_camera_only_for_view_dependent_methods():
+    for method, camera_matters in (("ir", False), ("bidir", True)):
+        state = SequenceState(method)
+        render(lamp_scene(), settings(method), sequence=state)
+        moved_light = render(lamp_scene(light_at=(0.3, 0.5, 1)), settings(method), sequence=state)
+        assert moved_light.info["light_paths"] > 0 and not moved_light.info.get("reused")
+        assert state.bvh_builds == 1  # the light moved, the triangles did not
+        scene = lamp_scene(light_at=(0.3, 0.5, 1))
+        scene.camera.to_world[0, 3] += 0.1
+        moved_camera = render(scene, settings(method), sequence=state)
+        assert bool(moved_camera.info.get("reused")) is not camera_matters
+        render(lamp_scene(light_at=(0.3, 0.5, 1), wall_shift=0.1), settings(method), sequence=state)
+        assert state.bvh_builds == 2
+        state.close()
+
+
+def test_a_saved_state_renders_the_next_frame_exactly_as_the_live_one():
+    live = SequenceState("bidir")
+    render(lamp_scene(), settings("bidir", frame_seed(0, 1)), sequence=live)
+    saved = SequenceState.loads(live.dumps())
+    a = render(lamp_scene(), settings("bidir", frame_seed(0, 2)), sequence=live)
+    b = render(lamp_scene(), settings("bidir", frame_seed(0, 2)), sequence=saved)
+    assert b.info.get("reused") and saved.bvh_builds == 2  # a loaded state builds its BVH again...
+    for name in a.passes:  # ...and renders the same pixels
+        np.testing.assert_array_equal(a.passes[name], b.passes[name])
+    live.close()
+    saved.close()
+    with pytest.raises(ValueError):
+        SequenceState.loads(__import__("pickle").dumps({"not": "a state"}))
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_a_block_moving_through_the_lights_renders_finite_light_in_every_frame(method):
+    """A block slides through the room, over the floor's VPLs: every method's carried
+    state gives finite, non-negative light in every frame and follows the change."""
+    from test_path_verification import room_with_block
+    state = SequenceState(method)
+    images = []
+    for frame, offset in enumerate((-0.6, 0.0, 0.6), start=1):
+        scene = room_with_block(offset)
+        result = render(scene, settings(method, frame_seed(0, frame)), sequence=state)
+        image = result.passes["Diffuse Indirect"]
+        assert np.isfinite(image).all() and (image >= 0).all()
+        images.append(image)
+    assert not np.array_equal(images[0], images[2])
+    state.close()
