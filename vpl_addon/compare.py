@@ -20,7 +20,10 @@ def compare_files(image_path: str, reference_path: str, names: list[str] | None 
         else None
     any_ref = reference[common[0]]
     mask = coverage_mask(ref_alpha, any_ref.shape[:2])
-    result = {name: errors(image[name], reference[name], pass_mask(name, reference, mask)) for name in common}
+    masks = {name: pass_mask(name, reference, mask) for name in common}
+    if names is None:  # all passes: leave out those undefined everywhere (the glossy ones of a diffuse scene)
+        common = [n for n in common if masks[n].any()] or common
+    result = {name: errors(image[name], reference[name], masks[name]) for name in common}
     if heatmap:
         focus = next((n for n in (P.DIFFUSE_INDIRECT, P.DIFFUSE_DIRECT) if n in common), common[0])
         write_heatmap(heatmap, error_map(image[focus], reference[focus]), pass_mask(focus, reference, mask),
