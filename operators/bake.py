@@ -332,11 +332,4 @@ class RENDER_PT_vpl_gi_bake(bpy.types.Panel):
 CLASSES = (VPLGI_OT_bake_sequence, RENDER_PT_vpl_gi_bake)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)

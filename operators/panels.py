@@ -57,19 +57,15 @@ class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        col = layout.column(heading="Diffuse", align=True)
-        for name, toggle, _, _ in PASS_TOGGLES:
-            col.prop(context.view_layer, toggle, text=name.replace("Diffuse ", ""))
+        for heading in ("Diffuse", "Glossy", "Other"):  # as Cycles' own pass panel groups them
+            col = layout.column(heading=heading, align=True)
+            for name, toggle, _, _ in PASS_TOGGLES:
+                kind = name.split(" ")[0] if name.split(" ")[0] in ("Diffuse", "Glossy") else "Other"
+                if kind == heading:
+                    col.prop(context.view_layer, toggle, text=name.replace(f"{heading} ", ""))
 
 
 CLASSES = (RENDER_PT_vpl_gi, VIEWLAYER_PT_vpl_gi_passes)
 
 
-def register():
-    for cls in CLASSES:
-        bpy.utils.register_class(cls)
-
-
-def unregister():
-    for cls in reversed(CLASSES):
-        bpy.utils.unregister_class(cls)
+register, unregister = bpy.utils.register_classes_factory(CLASSES)
