@@ -170,10 +170,14 @@ class GlossyLobe:
     @staticmethod
     def of(surface) -> "GlossyLobe":
         view = -surface.incident
-        comp = compensation(surface.roughness, surface.specular, surface.edge, dot(surface.shading_normal, view))
-        m = surface.metallic[:, None]
+        shiny = np.nonzero(surface.metallic > 0.0)[0]  # the rest has no lobe: weight and colour stay 0
+        comp = compensation(surface.roughness[shiny], surface.specular[shiny], surface.edge[shiny],
+                            dot(surface.shading_normal[shiny], view[shiny]))
+        m = surface.metallic[shiny, None]
+        weight, color = np.zeros_like(surface.specular), np.zeros_like(surface.specular)
+        weight[shiny], color[shiny] = m * comp.scale, m * comp.color
         return GlossyLobe(surface.shading_normal, view, alpha(surface.roughness), surface.specular, surface.edge,
-                          m * comp.scale, m * comp.color)
+                          weight, color)
 
     def take(self, rows) -> "GlossyLobe":
         return GlossyLobe(*(getattr(self, f.name)[rows] for f in fields(GlossyLobe)))
