@@ -50,11 +50,11 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         if lights.local:
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
-            wi, dist, weight, target_n = lights.sample_incident(p[idx], ns[idx], strata, u1, u2)
+            wi, dist, weight, target_n = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, idx - lo)
             _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer, glossy)
         if lights.world is not None:
-            wi, dist, weight = lights.world.sample_incident(p[idx], ns[idx], w1, w2)
-            _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, np.zeros_like(wi), tracer, glossy)
+            wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, idx - lo)
+            _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, None, tracer, glossy)
     return out / samples, shine / samples
 
 
@@ -66,7 +66,8 @@ def _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, 
     sel = np.nonzero(ok)[0]
     if len(sel) == 0:
         return
-    vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], target_n[sel])
+    on_geometry = None if target_n is None else target_n[sel]
+    vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], on_geometry)
     contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
     out[lo:hi] += group_sum(idx[sel] - lo, contrib, hi - lo)
     if glossy is not None:

@@ -100,7 +100,15 @@ class Light:
         d2 = dot(p - center, p - center)
         return np.full(len(p), self.flux_estimate(scene_radius)) / (4.0 * np.pi * np.maximum(d2, r * r + 1e-30))
 
-    def sample_incident(self, p, n, u1, u2):
+    def sample_incident(self, p, n, u1, u2, owner=None):
+        """Light samples toward shading points: ``owner`` (N,) gives the point of ``p`` (P,3) each sample (u1[i],
+        u2[i]) belongs to (None: sample i is at point i). A light whose sampling has a per-point part (the
+        spherical rectangle) computes it once per point."""
+        if owner is not None:
+            p, n = p[owner], n[owner]
+        return self._sample_incident(p, n, u1, u2)
+
+    def _sample_incident(self, p, n, u1, u2):
         raise NotImplementedError
 
     def emit(self, count, rng, center, radius):
@@ -134,7 +142,7 @@ class PointLight(Light):
         """Emission profile along directions leaving the light (1 for a point light)."""
         return np.ones(len(out_dirs))
 
-    def sample_incident(self, p, n, u1, u2):
+    def _sample_incident(self, p, n, u1, u2):
         wi, dist, factor = _round_light_sample(p, self.position, self.radius, self.soft_falloff, u1, u2)
         return wi, dist, (factor * self.attenuation(-wi))[:, None] * self.intensity
 
@@ -193,7 +201,7 @@ class SunLight(Light):
     def importance(self, p, scene_radius):
         return np.full(len(p), float(self.strength @ LUMINANCE))
 
-    def sample_incident(self, p, n, u1, u2):
+    def _sample_incident(self, p, n, u1, u2):
         count = len(p)
         axis = np.broadcast_to(-self.direction, (count, 3))
         half = 0.5 * self.angle
@@ -273,9 +281,12 @@ class AreaLight(Light):
             x, y = u1 - 0.5, u2 - 0.5
         return self.center + x[:, None] * self.axis_u + y[:, None] * self.axis_v
 
-    def sample_incident(self, p, n, u1, u2):
-        if not self.round:
-            return self._sample_spherical_rectangle(p, u1, u2)
+    def sample_incident(self, p, n, u1, u2, owner=None):
+        if self.round:
+            return super().sample_incident(p, n, u1, u2, owner)
+        return self._sample_spherical_rectangle(p, u1, u2, owner)
+
+    def _sample_incident(self, p, n, u1, u2):
         q = self.sample_points(u1, u2)
         to_l = q - p
         d2 = dot(to_l, to_l)
@@ -285,9 +296,10 @@ class AreaLight(Light):
         factor = cos_l * self.spread_profile(cos_l) * self.area / np.maximum(d2, 1e-300)
         return wi, dist, factor[:, None] * self.radiance
 
-    def _sample_spherical_rectangle(self, p, u1, u2):
-        """Uniform in the solid angle the rectangle subtends (Urena, Fajardo, King: "An Area-Preserving
-        Parametrization for Spherical Rectangles", EGSR 2013): L_e / pdf = L x solid angle, no 1/d^2 spikes."""
+    def _spherical_rectangle(self, p):
+        """The per-point part of Urena et al.'s sampling (their Algorithm 1 up to the solid angle): the local frame's
+        rectangle corner (x0, y0, z0) and far corner (x1, y1) seen from each point, b0, b1, k and the solid angle,
+        and the frame's z flipped so the rectangle lies below the point."""
         ex, ey = self.axis_u, self.axis_v
         lx, ly = np.linalg.norm(ex), np.linalg.norm(ey)
         x, y = ex / lx, ey / ly
@@ -296,25 +308,31 @@ class AreaLight(Light):
         x0, y0, z0 = d @ x, d @ y, d @ z
         flip = z0 > 0.0  # work in the frame where the rectangle lies below the point (z0 < 0)
         z0 = np.where(flip, -z0, z0)
-        zf = np.where(flip[:, None], -z, z)
         x1, y1 = x0 + lx, y0 + ly
+        zero = np.zeros_like(z0)
 
         def unit(a, b, c):
             v = np.stack([a, b, c], axis=-1)
             return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
         # normals of the spherical quad's edges in the local frame (x, y, z)
-        n0 = unit(np.zeros_like(z0), z0, -y0)
-        n1 = unit(-z0, np.zeros_like(z0), x1)
-        n2 = unit(np.zeros_like(z0), -z0, y1)
-        n3 = unit(z0, np.zeros_like(z0), -x0)
-        g0 = np.arccos(np.clip(-dot(n0, n1), -1, 1))
-        g1 = np.arccos(np.clip(-dot(n1, n2), -1, 1))
-        g2 = np.arccos(np.clip(-dot(n2, n3), -1, 1))
-        g3 = np.arccos(np.clip(-dot(n3, n0), -1, 1))
-        b0, b1 = n0[:, 2], n2[:, 2]
+        n0, n1, n2, n3 = unit(zero, z0, -y0), unit(-z0, zero, x1), unit(zero, -z0, y1), unit(z0, zero, -x0)
+        g0, g1, g2, g3 = (np.arccos(np.clip(-dot(a, b), -1, 1)) for a, b in ((n0, n1), (n1, n2), (n2, n3), (n3, n0)))
         k = 2.0 * np.pi - g2 - g3
-        solid = np.maximum(g0 + g1 - k, 0.0)
+        return dict(x0=x0, y0=y0, z0=z0, x1=x1, y1=y1, b0=n0[:, 2], b1=n2[:, 2], k=k,
+                    solid=np.maximum(g0 + g1 - k, 0.0), zsign=np.where(flip, -1.0, 1.0), frame=(x, y, z))
+
+    def _sample_spherical_rectangle(self, p, u1, u2, owner=None):
+        """Uniform in the solid angle the rectangle subtends (Urena, Fajardo, King: "An Area-Preserving
+        Parametrization for Spherical Rectangles", EGSR 2013): L_e / pdf = L x solid angle, no 1/d^2 spikes.
+        The per-point part is computed once per point of ``p``, the rest per sample (``owner`` as in
+        ``Light.sample_incident``)."""
+        per_point = self._spherical_rectangle(p)
+        x, y, z = per_point.pop("frame")
+        if owner is not None:
+            per_point = {key: value[owner] for key, value in per_point.items()}
+        x0, y0, z0, x1, y1, b0, b1, k, solid, zsign = (per_point[key] for key in (
+            "x0", "y0", "z0", "x1", "y1", "b0", "b1", "k", "solid", "zsign"))
         au = u1 * solid + k
         with np.errstate(divide="ignore", invalid="ignore"):
             fu = (np.cos(au) * b0 - b1) / np.sin(au)
@@ -325,8 +343,7 @@ class AreaLight(Light):
             h1 = y1 / np.sqrt(dd * dd + y1 * y1)
             hv = h0 + u2 * (h1 - h0)
             yv = np.where(hv * hv < 1.0 - 1e-6, hv * dd / np.sqrt(np.maximum(1.0 - hv * hv, 1e-300)), y1)
-        q = p + np.nan_to_num(xu)[:, None] * x + np.nan_to_num(yv)[:, None] * y + z0[:, None] * zf
-        to_l = q - p
+        to_l = np.nan_to_num(xu)[:, None] * x + np.nan_to_num(yv)[:, None] * y + (z0 * zsign)[:, None] * z
         dist = np.linalg.norm(to_l, axis=1)
         wi = to_l / np.maximum(dist, 1e-300)[:, None]
         cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
@@ -373,7 +390,7 @@ class EmissiveTriangles(Light):
         lo, hi = pts.min(axis=0), pts.max(axis=0)
         return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
 
-    def sample_incident(self, p, n, u1, u2):
+    def _sample_incident(self, p, n, u1, u2):
         idx = sample_cdf(self.cdf, u1)
         # reuse u1 within the chosen CDF bin for the point: keeps one random pair per sample
         lo = np.where(idx > 0, self.cdf[np.maximum(idx - 1, 0)], 0.0)
@@ -415,7 +432,7 @@ class WorldLight(Light):
     def flux_estimate(self, scene_radius):
         return float(self.radiance @ LUMINANCE) * np.pi * np.pi * scene_radius ** 2
 
-    def sample_incident(self, p, n, u1, u2):
+    def _sample_incident(self, p, n, u1, u2):
         wi, cos = cosine_hemisphere(u1, u2, n)
         factor = np.pi / np.maximum(cos, 1e-12)
         return wi, np.full(len(p), np.inf), factor[:, None] * self.radiance
@@ -474,26 +491,27 @@ class LightSet:
                 origins[m], dirs[m], power[m] = o, d, w / prob[index]
         return origins, dirs, power
 
-    def sample_incident(self, p, n, u_select, u1, u2):
-        """One sample of a local light per point: (wi, dist, L_e / pdf including 1/p_select, normal at the light
-        point). The normal is zero where the light point is not on scene geometry (analytic lights)."""
-        count = len(p)
-        target_n = np.zeros((count, 3))
+    def sample_incident(self, p, n, u_select, u1, u2, owner=None):
+        """One sample of a local light per sample: (wi, dist, L_e / pdf including 1/p_select, normal at the light
+        point or None). ``owner`` as in ``Light.sample_incident`` (the points p, n, the samples u). The normal is
+        zero where the light point is not on scene geometry (analytic lights), None if no light is on geometry."""
+        owner = np.arange(len(p)) if owner is None else owner
         if len(self.local) == 1:
-            out = self.local[0].sample_incident(p, n, u1, u2)
-            return out[0], out[1], out[2], out[3] if len(out) == 4 else target_n
-        wi = np.zeros((count, 3))
-        dist = np.zeros(count)
-        weight = np.zeros((count, 3))
+            out = self.local[0].sample_incident(p, n, u1, u2, owner)
+            return out[0], out[1], out[2], out[3] if len(out) == 4 else None
+        count = len(owner)
+        wi, dist, weight, target_n = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3)), None
         prob = self.selection(p)
-        choice = np.minimum((np.cumsum(prob, axis=1) < u_select[:, None]).sum(axis=1), len(self.local) - 1)
+        choice = np.minimum((np.cumsum(prob[owner], axis=1) < u_select[:, None]).sum(axis=1), len(self.local) - 1)
         for index, light in enumerate(self.local):
             m = np.nonzero(choice == index)[0]
             if len(m) == 0:
                 continue
-            out = light.sample_incident(p[m], n[m], u1[m], u2[m])
-            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / prob[m, index][:, None]
+            points, at = np.unique(owner[m], return_inverse=True)  # per-point work only where the light is chosen
+            out = light.sample_incident(p[points], n[points], u1[m], u2[m], at)
+            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / prob[owner[m], index][:, None]
             if len(out) == 4:
+                target_n = np.zeros((count, 3)) if target_n is None else target_n
                 target_n[m] = out[3]
         return wi, dist, weight, target_n
 

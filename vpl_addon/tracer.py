@@ -127,12 +127,14 @@ class Tracer:
         """
         side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
         origin = self.offset_origin(p, side)
-        target = p + dirs * np.where(np.isfinite(dist), dist, 0.0)[:, None]
+        finite = np.isfinite(dist)
+        if not finite.any():  # distant lights only: rays to infinity
+            return ~self.occluded(origin, dirs, FAR)
+        target = p + dirs * np.where(finite, dist, 0.0)[:, None]
         if target_normal is not None:
             t_side = np.where((np.einsum("ij,ij->i", target_normal, dirs) <= 0.0)[:, None],
                               target_normal, -target_normal)
             target = self.offset_origin(target, t_side)
-        finite = np.isfinite(dist)
         seg = target - origin
         seg_len = np.linalg.norm(seg, axis=1)
         new_dirs = np.where(finite[:, None] & (seg_len[:, None] > 0), seg / np.maximum(seg_len, 1e-300)[:, None],
