@@ -62,15 +62,15 @@ def _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, 
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
     weight * (f cos of the glossy lobe) * V."""
     cos = dot(ns[idx], wi)
-    ok = (cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (weight.max(axis=1) > 0.0) & np.isfinite(weight).all(axis=1)
-    sel = np.nonzero(ok)[0]
+    total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
+    sel = np.nonzero((cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    vis = tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], on_geometry)
-    contrib = weight[sel] * (cos[sel] * vis / np.pi)[:, None]
-    out[lo:hi] += group_sum(idx[sel] - lo, contrib, hi - lo)
+    sel = sel[tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], on_geometry)]
+    at = idx[sel]
+    out[lo:hi] += group_sum(at - lo, weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
     if glossy is not None:
-        lit = np.nonzero((vis > 0.0) & (glossy.weight[idx[sel]].max(axis=1) > 0.0))[0]
-        value, _ = glossy.evaluate(wi[sel[lit]], idx[sel[lit]])
-        shine[lo:hi] += group_sum(idx[sel[lit]] - lo, weight[sel[lit]] * (value * vis[lit, None]), hi - lo)
+        lit = np.nonzero(glossy.weight[at].max(axis=1) > 0.0)[0]
+        value, _ = glossy.evaluate(wi[sel[lit]], at[lit])
+        shine[lo:hi] += group_sum(at[lit] - lo, weight[sel[lit]] * value, hi - lo)

@@ -108,14 +108,13 @@ class Tracer:
         """Move points p off their surface along the (geometric) normal n, toward the side n points to: by
         ULP_OFFSET float32 steps of the point's (centred) coordinates, and at least extent / 65536 (near the
         centre a few steps of a tiny coordinate are less than embree's error on the triangle's larger ones)."""
-        local = np.asarray(p, np.float64) - self.center
-        p32 = local.astype(np.float32)
+        p = np.asarray(p, np.float64)
+        p32 = (p - self.center).astype(np.float32)
         n = np.asarray(n, np.float32)
         of_i = (ULP_OFFSET * n).astype(np.int32)
-        p_i = p32.view(np.int32) + np.where(p32 < 0.0, -of_i, of_i)
-        by_ulps = p_i.view(np.float32).astype(np.float64) - p32
-        absolute = (self.extent / 65536.0) * n.astype(np.float64)
-        return local + np.where(np.abs(by_ulps) > np.abs(absolute), by_ulps, absolute) + self.center
+        by_ulps = (p32.view(np.int32) + np.where(p32 < 0.0, -of_i, of_i)).view(np.float32) - p32
+        absolute = np.float32(self.extent / 65536.0) * n
+        return p + np.where(np.abs(by_ulps) > np.abs(absolute), by_ulps, absolute)
 
     def visible(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
                 target_normal: np.ndarray | None = None) -> np.ndarray:
