@@ -41,6 +41,7 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         else:
             if settings.method == "ir":
                 sub.prop(settings, "path_reuse")
+                sub.prop(settings, "path_threshold")
             if settings.method == "smc":
                 sub.prop(settings, "smc_replacements")
                 sub.prop(settings, "smc_warmup")
