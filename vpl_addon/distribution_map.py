@@ -102,7 +102,8 @@ def prune(counts: np.ndarray, target: np.ndarray, cell: np.ndarray, rng) -> np.n
 
 def fill(counts: np.ndarray, target: np.ndarray, rng) -> np.ndarray:
     """The cells of the new paths that bring each cell up to its target (a fractional shortfall is rounded at
-    random, so the expected count is the target)."""
+    random). ``counts`` is DM_C before pruning: a cell that pruning took below its target is not filled, so every
+    cell's expected count is its target."""
     lack = np.maximum(target - counts, 0.0)
     number = np.floor(lack + rng.random(len(lack))).astype(np.int64)
     return np.repeat(np.arange(len(lack)), number)

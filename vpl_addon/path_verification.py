@@ -17,9 +17,12 @@ over its cells, DM_C the kept paths per cell) then prune paths of over-full cell
 (DM_C - DM_T) / DM_C (eq. 1) and fill cells below target by sampling the light restricted to the cell.
 
 Error threshold (sec. 3.3, eq. 2, Algorithm 1): a moved or box-crossing segment is first intersected again; if
-the reflected energy at its new end (incident power x albedo) is within T of the original, the VPL there moves to the
-new end with its energy, the next segment is aimed from the new end at its old end and verified the same way, and
-the rest of the path is kept once a segment ends where it ended before. Otherwise the path is traced again from that
+the energy reflected at its new end along the next segment (incident power x albedo x the ratio of the next
+direction's cosines to the new and the old normal) is within T of the original, the VPL there moves to the new end
+with its energy, the next segment leaves the new end in its old direction and is verified the same way, and the
+rest of the path is kept once a segment ends where it ended before. (The paper aims the next segment at its old
+end; replaying the direction instead keeps the choice of which tails to keep independent of where they went, which
+we measured to bias the aimed version: tails that had left the scene were kept, those that hit were re-traced.) Otherwise the path is traced again from that
 segment. T = 0 turns the threshold off: every moved segment is traced again with a new continuation. Not finished:
 with T > 0 the kept tails are measured biased (a block moved in a lit room: second and third bounce flux 1 % and
 5 % low over 300 seeds; a sphere light moved 0.1 m: second bounce flux a third of a full re-trace's), so the
@@ -204,7 +207,7 @@ class LightPathStore:
             target = np.full(count, self.paths * self.light_prob[index] / count)
             kept = dm.prune(counts, target, cell, rng)
             dropped[self.segments["path"][rows[~kept]]] = True
-            new_cells = dm.fill(np.bincount(cell[kept], minlength=count).astype(np.float64), target, rng)
+            new_cells = dm.fill(counts, target, rng)  # from DM_C before pruning: E[paths in a cell] = DM_T
             if len(new_cells):
                 origins, dirs, power = dm.sample(light, new_cells, rng)
                 parts.append((origins, dirs, power / self.light_prob[index], np.full(len(new_cells), index)))
@@ -223,7 +226,6 @@ class LightPathStore:
         first = np.full(max(self.next_id, 1), np.iinfo(np.int32).max, np.int64)
         np.minimum.at(first, seg["path"][moved], seg["bounce"][moved])
         pending = np.nonzero(moved & (seg["bounce"] == first[seg["path"]]))[0]
-        previous = np.full(len(pending), -1, np.int64)  # the segment before a re-aimed one
         restart = []
         extent = float(np.linalg.norm(np.subtract(*scene.bounds))) if threshold > 0.0 else 0.0
         while len(pending) and threshold > 0.0:
@@ -232,47 +234,35 @@ class LightPathStore:
             at = self._lookup(seg["path"][pending], seg["bounce"][pending], self.vpls.path, self.vpls.bounce)
             rows = np.nonzero(hits.hit & (at >= 0))[0]
             surf = shade(scene, direction, hits, rows)
-            # the next segment, aimed from the new end at its old end (Algorithm 1, lines 7-10)
+            # the next segment leaves the new end in its old direction (Algorithm 1, lines 7-10, with the sampled
+            # direction replayed rather than aimed at the old end: the choice to keep a tail must not depend on
+            # where the tail went, or the kept paths favour some outcomes)
             after = self._lookup(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1, seg["path"],
                                  seg["bounce"])
-            nxt = np.maximum(after, 0)
-            finite = (after >= 0) & np.isfinite(seg["length"][nxt])
-            old_dir, old_length = seg["direction"][nxt], np.where(finite, seg["length"][nxt], 0.0)
-            start = tracer.offset_origin(surf.position, surf.geometric_normal)
-            aim = seg["origin"][nxt] + old_dir * old_length[:, None] - start
-            norm = np.linalg.norm(aim, axis=1)
-            aim = np.where((finite & (norm > 0.0))[:, None], aim / np.maximum(norm, 1e-300)[:, None], old_dir)
-            # energy reflected toward the next vertex relative to the original: the ratio of the geometry terms of
-            # the old and the new connection (1 at the path's last vertex)
+            old_dir = seg["direction"][np.maximum(after, 0)]
+            # energy reflected along it relative to the original (the cosine-weighted sampling's weight is the
+            # albedo only if the direction keeps its cosine to the normal; 1 at the path's last vertex)
             with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = dot(aim, surf.shading_normal) / dot(old_dir, self.vpls.normal[at[rows]])
-                far = self._lookup(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1, self.vpls.path,
-                                   self.vpls.bounce)
-                n_far = self.vpls.normal[np.maximum(far, 0)]
-                ratio = np.where(finite & (far >= 0), ratio * np.abs(dot(aim, n_far)) * old_length ** 2 /
-                                 (np.abs(dot(old_dir, n_far)) * norm ** 2), ratio)
-                ratio = np.where(after >= 0, ratio, 1.0)
+                ratio = np.where(after >= 0, dot(old_dir, surf.shading_normal) /
+                                 dot(old_dir, self.vpls.normal[at[rows]]), 1.0)
             new_energy = seg["power"][pending[rows]] * surf.albedo * ratio[:, None]
             old_energy = self.vpls.intensity[at[rows]] * (np.pi * self.paths)
             close = np.zeros(len(pending), bool)
             close[rows] = (np.abs(new_energy - old_energy) <= threshold * old_energy).all(axis=1) & \
                 (old_energy.max(axis=1) > 0.0) & (surf.metallic <= 0.0) & np.isfinite(ratio) & \
-                ((after < 0) | (dot(aim, surf.geometric_normal) > 0.0))
+                ((after < 0) | (dot(old_dir, surf.geometric_normal) > 0.0))
             left = ~hits.hit & np.isinf(seg["length"][pending])  # left the scene then and now
-            # a path is traced again from the failing segment, or, if that one was re-aimed rather than sampled,
-            # from the segment before it (whose end then samples a new direction)
-            restart.append(np.where(previous >= 0, previous, pending)[~close & ~left])
+            restart.append(pending[~close & ~left])
             done, sel = pending[close], close[rows]
             position = surf.position[sel]
             same = np.linalg.norm(position - self.vpls.position[at[close]], axis=1) <= 1e-6 * extent
             self.vpls.position[at[close]] = position
             self.vpls.normal[at[close]] = surf.shading_normal[sel]
             seg["length"][done] = hits.t[close]
-            after, start, aim, norm, finite = after[sel], start[sel], aim[sel], norm[sel], finite[sel]
+            after = after[sel]
             go = (after >= 0) & (~same | moved[np.maximum(after, 0)])
-            nxt, previous = after[go], done[go]
-            seg["origin"][nxt], seg["direction"][nxt] = start[go], aim[go]
-            seg["length"][nxt] = np.where(finite[go], norm[go], np.inf)
+            nxt = after[go]
+            seg["origin"][nxt] = tracer.offset_origin(position[go], surf.geometric_normal[sel][go])
             pending = nxt
         if threshold <= 0.0:
             restart.append(pending)
