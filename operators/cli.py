@@ -303,7 +303,7 @@ def _render_flags(r) -> None:
                    help="ir in a sequence: trace every light path again when an object moved (no path verification)")
     r.add_argument("--path-threshold", type=float,
                    help="ir in a sequence: T of eq. 2, keep a moved path's tail when its reflected energy changes "
-                        "less than T (0: re-trace every moved segment, the default)")
+                        "less than T (default 0.001; 0: re-trace every moved segment)")
     r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
     r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")

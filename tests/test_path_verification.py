@@ -142,3 +142,31 @@ def test_paths_follow_a_moving_light_through_distribution_maps():
     finally:
         ta.close()
         tb.close()
+
+
+def test_threshold_keeps_tails_that_reflect_the_same_energy():
+    """Eq. 2 / Algorithm 1: with T = 0.1 % the block's move re-traces fewer paths than T = 0 (segments through its
+    box that hit where they hit before keep their tails) and no more rays; both agree with each other per bounce."""
+    before, after = room_with_block(0.0), room_with_block(0.3)
+    motion = Motion.between(Snapshot.of(before), Snapshot.of(after))
+    tb, ta = Tracer(before.triangles), Tracer(after.triangles)
+    try:
+        out = {}
+        for threshold in (0.0, 1e-3):
+            store = LightPathStore()
+            store.trace(before, tb, LightSet(before), 4000, np.random.default_rng(0), 3)
+            traced = store.update(after, ta, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6,
+                                  threshold)
+            flux = [store.vpls.intensity[store.vpls.bounce == b].sum() for b in (1, 2, 3)]
+            out[threshold] = traced, store.rays_last_frame, flux, store
+        assert 0 < out[1e-3][0] < out[0.0][0] and out[1e-3][1] <= out[0.0][1]
+        assert out[1e-3][2] == pytest.approx(out[0.0][2], rel=0.05)
+        store = out[1e-3][3]
+        lo, hi = motion.boxes[0]
+        in_old = ((store.vpls.position >= lo + 1e-3) & (store.vpls.position <= hi - 1e-3)).all(axis=1)
+        lo, hi = motion.boxes[1]
+        on_new = ((store.vpls.position >= lo - 1e-6) & (store.vpls.position <= hi + 1e-6)).all(axis=1)
+        assert not (in_old & ~on_new).any()  # nothing floats where the block was
+    finally:
+        ta.close()
+        tb.close()

@@ -17,18 +17,17 @@ over its cells, DM_C the kept paths per cell) then prune paths of over-full cell
 (DM_C - DM_T) / DM_C (eq. 1) and fill cells below target by sampling the light restricted to the cell.
 
 Error threshold (sec. 3.3, eq. 2, Algorithm 1): a moved or box-crossing segment is first intersected again; if
-the energy reflected at its new end along the next segment (incident power x albedo x the ratio of the next
-direction's cosines to the new and the old normal) is within T of the original, the VPL there moves to the new end
-with its energy, the next segment leaves the new end in its old direction and is verified the same way, and the
-rest of the path is kept once a segment ends where it ended before. (The paper aims the next segment at its old
-end; replaying the direction instead keeps the choice of which tails to keep independent of where they went, which
-we measured to bias the aimed version: tails that had left the scene were kept, those that hit were re-traced.) Otherwise the path is traced again from that
-segment. T = 0 turns the threshold off: every moved segment is traced again with a new continuation. Not finished:
-with T > 0 the kept tails are measured biased (a block moved in a lit room: second and third bounce flux 1 % and
-5 % low over 300 seeds; a sphere light moved 0.1 m: second bounce flux a third of a full re-trace's), so the
-default (``MethodSettings.path_threshold``) is 0 until that is found. A light of a
-kind without a distribution map (sun, round area light, emissive triangles, world) that changed, a light that
-appeared or vanished, or a change of the shading re-traces every path.
+the energy reflected at its new end (incident power x albedo) is within T of the original and the normal there is
+the old one, the VPL moves to the new end with its energy, the next segment leaves the new end in its old direction
+and is verified the same way, and the rest of the path is kept once a segment ends where it ended before. (The
+paper aims the next segment at its old end. Measured on a moving lamp, that keeps the tails that had left the scene
+and re-traces those that hit, second-bounce flux a third of a re-trace's; a test on the next direction's cosine
+biases the same way. Replaying the direction where the normal is unchanged keeps the choice of which tails to keep
+independent of where they went.) Otherwise the path is traced again from that segment, whose hit is not traced
+twice. T = 0 turns the threshold off: every moved segment is traced again with a new continuation.
+
+A light of a kind without a distribution map (sun, round area light, emissive triangles, world) that changed, a
+light that appeared or vanished, or a change of the shading re-traces every path.
 """
 from __future__ import annotations
 
@@ -39,9 +38,10 @@ from .light_paths import trace_paths, trace_until
 from .motion import light_digest
 from .sampling import dot
 from .surface import shade
+from .tracer import Hits
 from .virtual_lights import VirtualLights
 
-THRESHOLD = 0.0  # T of eq. 2 (the paper uses 0.1 %; see the module docstring)
+THRESHOLD = 1e-3  # T of eq. 2, the paper's 0.1 %
 
 
 def segments_crossing_boxes(origin: np.ndarray, direction: np.ndarray, length: np.ndarray,
@@ -226,7 +226,7 @@ class LightPathStore:
         first = np.full(max(self.next_id, 1), np.iinfo(np.int32).max, np.int64)
         np.minimum.at(first, seg["path"][moved], seg["bounce"][moved])
         pending = np.nonzero(moved & (seg["bounce"] == first[seg["path"]]))[0]
-        restart = []
+        restart, restart_hits = [], []  # the segments to trace again from, and their hits (already traced)
         extent = float(np.linalg.norm(np.subtract(*scene.bounds))) if threshold > 0.0 else 0.0
         while len(pending) and threshold > 0.0:
             origin, direction = seg["origin"][pending], seg["direction"][pending]
@@ -235,24 +235,23 @@ class LightPathStore:
             rows = np.nonzero(hits.hit & (at >= 0))[0]
             surf = shade(scene, direction, hits, rows)
             # the next segment leaves the new end in its old direction (Algorithm 1, lines 7-10, with the sampled
-            # direction replayed rather than aimed at the old end: the choice to keep a tail must not depend on
-            # where the tail went, or the kept paths favour some outcomes)
+            # direction replayed rather than aimed at the old end), which is a sample of the new end's own lobe only
+            # where the normal is the same: elsewhere the path is traced again. Whether a tail is kept must not
+            # depend on where the tail went (which way it leaves, whether it hit), or the kept paths favour some
+            # outcomes: the energy compared is the vertex's own, incident power x albedo
             after = self._lookup(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1, seg["path"],
                                  seg["bounce"])
             old_dir = seg["direction"][np.maximum(after, 0)]
-            # energy reflected along it relative to the original (the cosine-weighted sampling's weight is the
-            # albedo only if the direction keeps its cosine to the normal; 1 at the path's last vertex)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                ratio = np.where(after >= 0, dot(old_dir, surf.shading_normal) /
-                                 dot(old_dir, self.vpls.normal[at[rows]]), 1.0)
-            new_energy = seg["power"][pending[rows]] * surf.albedo * ratio[:, None]
+            new_energy = seg["power"][pending[rows]] * surf.albedo
             old_energy = self.vpls.intensity[at[rows]] * (np.pi * self.paths)
             close = np.zeros(len(pending), bool)
             close[rows] = (np.abs(new_energy - old_energy) <= threshold * old_energy).all(axis=1) & \
-                (old_energy.max(axis=1) > 0.0) & (surf.metallic <= 0.0) & np.isfinite(ratio) & \
+                (old_energy.max(axis=1) > 0.0) & (surf.metallic <= 0.0) & \
+                (dot(surf.shading_normal, self.vpls.normal[at[rows]]) >= 1.0 - 1e-9) & \
                 ((after < 0) | (dot(old_dir, surf.geometric_normal) > 0.0))
             left = ~hits.hit & np.isinf(seg["length"][pending])  # left the scene then and now
             restart.append(pending[~close & ~left])
+            restart_hits.append(hits.take(~close & ~left))
             done, sel = pending[close], close[rows]
             position = surf.position[sel]
             same = np.linalg.norm(position - self.vpls.position[at[close]], axis=1) <= 1e-6 * extent
@@ -267,25 +266,29 @@ class LightPathStore:
         if threshold <= 0.0:
             restart.append(pending)
         restart = np.concatenate(restart) if restart else np.zeros(0, np.int64)
-        self._retrace(scene, tracer, lights, None, rng, max_bounces, restart)
+        self._retrace(scene, tracer, lights, None, rng, max_bounces, restart,
+                      Hits.concat(restart_hits) if restart_hits else None)
         return len(restart)
 
-    def _retrace(self, scene, tracer, lights, starts, rng, max_bounces, restart=None) -> None:
-        """Trace paths again from the segments ``restart`` (their VPLs and segments from there on dropped), or the
-        new ``starts`` (origins, dirs, power, path ids, bounce) of filled paths."""
+    def _retrace(self, scene, tracer, lights, starts, rng, max_bounces, restart=None, hits=None) -> None:
+        """Trace paths again from the segments ``restart`` (their VPLs and segments from there on dropped; ``hits``:
+        those segments' hits if traced already), or the new ``starts`` (origins, dirs, power, path ids, bounce) of
+        filled paths."""
         if restart is not None:
             seg = self.segments
             cut = np.full(max(self.next_id, 1), np.iinfo(np.int32).max, np.int64)
             cut[seg["path"][restart]] = seg["bounce"][restart]
             again = {k: v[restart] for k, v in seg.items()}
             self._keep(seg["bounce"] < cut[seg["path"]], self.vpls.bounce < cut[self.vpls.path])
-            groups = [(again["origin"][r], again["direction"][r], again["power"][r], again["path"][r], int(b))
+            groups = [((again["origin"][r], again["direction"][r], again["power"][r], again["path"][r], int(b)),
+                       None if hits is None else hits.take(r))
                       for b in np.unique(again["bounce"]) for r in [np.nonzero(again["bounce"] == b)[0]]]
         else:
-            groups = [starts]
-        for start in groups:  # trace_paths continues from one common bounce
+            groups = [(starts, None)]
+        for start, start_hits in groups:  # trace_paths continues from one common bounce
             recorded, record = self._recorder()
-            vpls = trace_paths(scene, tracer, lights, 0, rng, max_bounces, start=start, record=record)
+            vpls = trace_paths(scene, tracer, lights, 0, rng, max_bounces, start=start, record=record,
+                               start_hits=start_hits)
             vpls = vpls.scaled(1.0 / max(self.paths, 1))
             self._append(vpls, self._segments(recorded, vpls))
 

@@ -34,8 +34,8 @@ class MethodSettings:
     # in a sequence, keep light paths between frames and re-trace only those that moved objects cut (Moreau et al.)
     path_reuse: bool = True
     # T of eq. 2 (Moreau et al. sec. 3.3): a moved segment whose new end reflects within T of its old energy keeps
-    # the rest of its path; 0 (the default: T > 0 measured biased, see path_verification) re-traces every moved one
-    path_threshold: float = 0.0
+    # the rest of its path (the paper's 0.1 %); 0 re-traces every moved segment
+    path_threshold: float = 1e-3
 
 
 def place(name: str, context: MethodContext, settings: MethodSettings):
