@@ -300,9 +300,10 @@ def _render_flags(r) -> None:
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
     r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
     r.add_argument("--no-path-reuse", action="store_true",
-                   help="ir in a sequence: trace every light path again when an object moved (no path verification)")
+                   help="ir and bidir in a sequence: trace every light path again when an object or light moved "
+                        "(no path verification)")
     r.add_argument("--path-threshold", type=float,
-                   help="ir in a sequence: T of eq. 2, keep a moved path's tail when its reflected energy changes "
+                   help="ir and bidir in a sequence: T of eq. 2, keep a moved path's tail when its reflected energy changes "
                         "less than T (default 0.001; 0: re-trace every moved segment)")
     r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
     r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")

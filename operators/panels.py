@@ -39,7 +39,7 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
             sub.prop(settings, "elimination")
             sub.prop(settings, "path_extension")
         else:
-            if settings.method == "ir":
+            if settings.method in ("ir", "bidir"):
                 sub.prop(settings, "path_reuse")
                 sub.prop(settings, "path_threshold")
             if settings.method == "smc":

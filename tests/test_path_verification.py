@@ -170,3 +170,23 @@ def test_threshold_keeps_tails_that_reflect_the_same_energy():
     finally:
         ta.close()
         tb.close()
+
+
+def test_bidir_keeps_its_standard_light_paths_through_the_same_store():
+    """bidir's standard VPLs come from a LightPathStore too: the block's move traces a fraction of a full re-trace's
+    light-path rays, and the frame stays finite and as bright."""
+    settings = dict(samples=1, light_samples=0, method="bidir", passes=("Diffuse Indirect",),
+                    gather=GatherSettings(interleave=1, clamp=0.0))
+    out = {}
+    for reuse in (True, False):
+        state = SequenceState("bidir")
+        for frame, offset in ((1, 0.0), (2, 0.3)):
+            result = render(room_with_block(offset), RenderSettings(**settings, seed=frame_seed(0, frame),
+                            placement=MethodSettings(vpls=300, path_reuse=reuse)), sequence=state)
+        assert isinstance(state.method_state.paths, LightPathStore)
+        out[reuse] = result
+        state.close()
+    assert out[True].info["light_path_rays"] * 3 < out[False].info["light_path_rays"]
+    a, b = out[True].passes["Diffuse Indirect"], out[False].passes["Diffuse Indirect"]
+    assert np.isfinite(a).all() and (a >= 0).all()
+    assert a.mean() == pytest.approx(b.mean(), rel=0.15)

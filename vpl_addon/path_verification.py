@@ -300,3 +300,24 @@ class LightPathStore:
 
     def lights(self) -> VirtualLights:
         return self.vpls
+
+
+def follow(store: LightPathStore, context, motion, target: int, reuse: bool = True, threshold: float = THRESHOLD,
+           light_prob=None) -> int:
+    """One frame of a method's kept light paths (``ir``, ``bidir``'s standard VPLs): nothing traced when nothing
+    they depend on changed, ``update`` when objects or lights moved (and ``reuse``), every path traced again
+    otherwise (the first frame, new shading, a light that cannot be followed) with ``light_prob`` choosing the
+    lights (default: by power). Returns the number of paths traced in part or whole."""
+    scene, tracer = context.scene, context.tracer
+    kept = store.paths and not motion.first and not motion.shading_changed
+    traced = None
+    if kept and not (motion.moved_objects or motion.lights_changed):
+        traced = store.rays_last_frame = 0
+    elif kept and reuse:
+        extent = float(np.linalg.norm(np.subtract(*scene.bounds)))
+        traced = store.update(scene, tracer, context.lights, motion.boxes, context.rng, context.max_bounces,
+                              margin=1e-5 * extent, threshold=threshold)
+    if traced is None:
+        store.trace(scene, tracer, context.lights, target, context.rng, context.max_bounces, light_prob)
+        traced = store.paths
+    return traced

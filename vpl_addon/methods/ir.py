@@ -9,10 +9,8 @@ objects are verified from the first crossing segment (sec. 3.2) with the error t
 ``MethodSettings.path_threshold``); when nothing moved, nothing is traced; a changed material traces every path."""
 from __future__ import annotations
 
-import numpy as np
-
 from ..light_paths import trace_until
-from ..path_verification import LightPathStore
+from ..path_verification import LightPathStore, follow
 
 
 def place(context, settings):
@@ -26,18 +24,7 @@ def start(context, settings) -> LightPathStore:
 
 
 def advance(store: LightPathStore, context, settings, motion):
-    scene, tracer = context.scene, context.tracer
-    changed = bool(motion.moved_objects) or motion.lights_changed
-    traced = None
-    if store.paths and not motion.first and not motion.shading_changed and changed and settings.path_reuse:
-        extent = float(np.linalg.norm(np.subtract(*scene.bounds)))
-        traced = store.update(scene, tracer, context.lights, motion.boxes, context.rng, context.max_bounces,
-                              margin=1e-5 * extent, threshold=settings.path_threshold)
-    elif store.paths and not motion.first and not motion.shading_changed and not changed:
-        traced = store.rays_last_frame = 0
-    if traced is None:  # the first frame, a new shading, a light that cannot be followed, or no reuse
-        store.trace(scene, tracer, context.lights, settings.vpls, context.rng, context.max_bounces)
-        traced = store.paths
+    traced = follow(store, context, motion, settings.vpls, settings.path_reuse, settings.path_threshold)
     vpls = store.lights()
     return vpls, {"light_paths": traced, "paths_kept": store.paths, "vpls": len(vpls),
                   "light_path_rays": store.rays_last_frame, "reused": traced == 0}
