@@ -172,17 +172,20 @@ def test_threshold_keeps_tails_that_reflect_the_same_energy():
         tb.close()
 
 
-def test_bidir_keeps_its_standard_light_paths_through_the_same_store():
-    """bidir's standard VPLs come from a LightPathStore too: the block's move traces a fraction of a full re-trace's
-    light-path rays, and the frame stays finite and as bright."""
-    settings = dict(samples=1, light_samples=0, method="bidir", passes=("Diffuse Indirect",),
+@pytest.mark.parametrize("method", ["bidir", "vbnl"])
+def test_bidir_and_vbnl_keep_their_light_paths_in_the_same_store(method):
+    """bidir's standard VPLs and vbnl's photons come from a LightPathStore too: the block's move traces a fraction
+    of a full re-trace's light-path rays, and the frame stays finite and as bright."""
+    from vpl_addon.methods.vbnl import VBNLSettings
+    settings = dict(samples=1, light_samples=0, method=method, passes=("Diffuse Indirect",),
                     gather=GatherSettings(interleave=1, clamp=0.0))
     out = {}
     for reuse in (True, False):
-        state = SequenceState("bidir")
+        state = SequenceState(method)
         for frame, offset in ((1, 0.0), (2, 0.3)):
+            placement = MethodSettings(vpls=300, path_reuse=reuse, vbnl=VBNLSettings(photons=8192))
             result = render(room_with_block(offset), RenderSettings(**settings, seed=frame_seed(0, frame),
-                            placement=MethodSettings(vpls=300, path_reuse=reuse)), sequence=state)
+                                                                    placement=placement), sequence=state)
         assert isinstance(state.method_state.paths, LightPathStore)
         out[reuse] = result
         state.close()

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import distribution_map as dm
-from .light_paths import trace_paths, trace_until
+from .light_paths import BATCH_PATHS, trace_paths, trace_until
 from .motion import light_digest
 from .sampling import dot
 from .surface import shade
@@ -128,12 +128,20 @@ class LightPathStore:
         self.segments = {k: v[segment_rows] for k, v in self.segments.items()}
         self.vpls = self.vpls.take(np.nonzero(vpl_rows)[0])
 
-    def trace(self, scene, tracer, lights, target: int, rng, max_bounces: int, light_prob=None) -> None:
-        """Trace new paths until about ``target`` VPLs (``light_paths.trace_until``), replacing what was kept."""
+    def trace(self, scene, tracer, lights, target: int, rng, max_bounces: int, light_prob=None,
+              paths: int | None = None) -> None:
+        """Trace new paths until about ``target`` VPLs (``light_paths.trace_until``), or exactly ``paths`` paths
+        (photon splitting), replacing what was kept."""
         rays0 = tracer.rays_traced
         self.__init__()
         recorded, record = self._recorder()
-        vpls, self.paths = trace_until(scene, tracer, lights, target, rng, max_bounces, light_prob, record)
+        if paths is None:
+            vpls, self.paths = trace_until(scene, tracer, lights, target, rng, max_bounces, light_prob, record)
+        else:
+            vpls = VirtualLights.concat([trace_paths(scene, tracer, lights, min(BATCH_PATHS, paths - first), rng,
+                                                     max_bounces, light_prob, first, record=record)
+                                         for first in range(0, paths, BATCH_PATHS)]).scaled(1.0 / max(paths, 1))
+            self.paths = paths
         self._grow(self.paths)
         self.emitters = list(lights.lights)
         self.light_prob = np.asarray(lights.prob if light_prob is None else light_prob, np.float64)
@@ -303,8 +311,9 @@ class LightPathStore:
 
 
 def follow(store: LightPathStore, context, motion, target: int, reuse: bool = True, threshold: float = THRESHOLD,
-           light_prob=None) -> int:
-    """One frame of a method's kept light paths (``ir``, ``bidir``'s standard VPLs): nothing traced when nothing
+           light_prob=None, paths: int | None = None) -> int:
+    """One frame of a method's kept light paths (``ir``, ``bidir``'s standard VPLs, ``vbnl``'s photons: ``target``
+    VPLs or exactly ``paths`` paths, as ``LightPathStore.trace``): nothing traced when nothing
     they depend on changed, ``update`` when objects or lights moved (and ``reuse``), every path traced again
     otherwise (the first frame, new shading, a light that cannot be followed) with ``light_prob`` choosing the
     lights (default: by power). Returns the number of paths traced in part or whole."""
@@ -318,6 +327,6 @@ def follow(store: LightPathStore, context, motion, target: int, reuse: bool = Tr
         traced = store.update(scene, tracer, context.lights, motion.boxes, context.rng, context.max_bounces,
                               margin=1e-5 * extent, threshold=threshold)
     if traced is None:
-        store.trace(scene, tracer, context.lights, target, context.rng, context.max_bounces, light_prob)
+        store.trace(scene, tracer, context.lights, target, context.rng, context.max_bounces, light_prob, paths)
         traced = store.paths
     return traced
