@@ -82,7 +82,7 @@ class VPLGISettings(bpy.types.PropertyGroup):
     path_reuse: bpy.props.BoolProperty(
         name="Path Reuse", default=_PLACE.path_reuse,
         description="In animations, keep light paths between frames and re-trace only those that moving objects "
-                    "cut or lights move (Instant Radiosity, Bidirectional)")
+                    "cut or lights move (Instant Radiosity, Bidirectional, Virtual Blue Noise)")
     path_threshold: bpy.props.FloatProperty(
         name="Path Threshold", default=_PLACE.path_threshold, min=0.0, max=1.0, precision=4,
         description="Path reuse: a moved light path keeps the rest of its vertices when the energy reflected at "
