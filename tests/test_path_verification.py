@@ -53,7 +53,8 @@ def test_verification_retraces_only_paths_the_moved_block_cuts():
     tracer.close()
     tracer = Tracer(after.triangles)
     try:
-        retraced = store.verify(after, tracer, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6)
+        retraced = store.update(after, tracer, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6,
+                                threshold=0.0)
         assert 0 < retraced < paths / 4 and 0 < store.rays_last_frame < full_rays / 3
         assert store.paths == paths
         lo, hi = motion.boxes[1]
@@ -63,7 +64,7 @@ def test_verification_retraces_only_paths_the_moved_block_cuts():
         in_old = ((store.vpls.position >= lo + 1e-3) & (store.vpls.position <= hi - 1e-3)).all(axis=1)
         assert not (in_old & ~on_new).any()  # nothing floats where the block was
         assert len(np.unique(store.vpls.path)) <= paths and store.vpls.path.max() < paths
-        assert store.verify(after, tracer, LightSet(after), [], np.random.default_rng(2), 3) == 0
+        assert store.update(after, tracer, LightSet(after), [], np.random.default_rng(2), 3) == 0
         assert store.rays_last_frame == 0
     finally:
         tracer.close()

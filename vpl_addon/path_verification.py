@@ -6,8 +6,9 @@ carries, path id, bounce, length to its hit or infinity when it left the scene) 
 next frame each segment is tested against the bounding boxes (old and new position) of every object that moved
 (``segments_crossing_boxes``, conservative like the paper's test); a path is cut at its first crossing segment, its
 VPLs from there on are dropped, and it is traced again from that segment's start with its direction and power
-(``light_paths.trace_paths(start=...)``), so only the broken tails cost rays. Objects that did not move cost
-nothing: a frame in which nothing moved re-traces no segment.
+(``light_paths.trace_paths(start=...)``), so only the broken tails cost rays (with T = 0; the threshold below
+keeps more). Objects that did not move cost nothing: a frame in which nothing moved re-traces no segment.
+``follow`` runs one frame of it for ``ir``'s paths, ``bidir``'s standard VPLs and ``vbnl``'s photons.
 
 Moving lights (sec. 3.1): every path remembers its light. A light that moved rigidly carries its paths' emission
 samples with it (point and direction, ``distribution_map.transform``), so their first segments move; a light whose
@@ -299,12 +300,6 @@ class LightPathStore:
                                start_hits=start_hits)
             vpls = vpls.scaled(1.0 / max(self.paths, 1))
             self._append(vpls, self._segments(recorded, vpls))
-
-    def verify(self, scene, tracer, lights, boxes, rng, max_bounces: int, margin: float = 0.0,
-               threshold: float = 0.0) -> int:
-        """Objects moved, lights did not: ``update`` with the lights unchanged (T = 0: every path crossing a box
-        is traced again from its first crossing segment); returns the number of paths traced again."""
-        return self.update(scene, tracer, lights, boxes, rng, max_bounces, margin, threshold)
 
     def lights(self) -> VirtualLights:
         return self.vpls
