@@ -60,7 +60,8 @@ def start(context, settings) -> BidirState:
 
 def advance(state: BidirState, context, settings, motion):
     if state.lights is not None and motion.static(view_dependent=True):
-        return state.lights, {**state.info, "light_paths": 0, "light_path_rays": 0, "reused": True}
+        kept = {k: v for k, v in state.info.items() if k != "light_path_rays"}  # as any method's static frame
+        return state.lights, {**kept, "light_paths": 0, "reused": True}
     state.lights, state.info = place(context, settings, state, motion)
     return state.lights, state.info
 
