@@ -144,6 +144,9 @@ def _prepare_scene(args):
         settings.path_extension = False
     if getattr(args, "no_path_reuse", False):
         settings.path_reuse = False
+    if getattr(args, "path_threshold", None) is not None:
+        _check_range(settings, "path_threshold", args.path_threshold)
+        settings.path_threshold = args.path_threshold
     if args.percentage is not None:
         scene.render.resolution_percentage = args.percentage
     for layer in scene.view_layers:
@@ -297,7 +300,11 @@ def _render_flags(r) -> None:
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
     r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
     r.add_argument("--no-path-reuse", action="store_true",
-                   help="ir in a sequence: trace every light path again when an object moved (no path verification)")
+                   help="ir, bidir and vbnl in a sequence: trace every light path again when an object or light "
+                        "moved (no path verification)")
+    r.add_argument("--path-threshold", type=float,
+                   help="ir, bidir and vbnl in a sequence: T of eq. 2, keep a moved path's tail when its reflected "
+                        "energy changes less than T (default 0.001; 0: re-trace every moved segment)")
     r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
     r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")

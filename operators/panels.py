@@ -38,9 +38,10 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
             sub.prop(settings, "photons")
             sub.prop(settings, "elimination")
             sub.prop(settings, "path_extension")
-        else:
-            if settings.method == "ir":
-                sub.prop(settings, "path_reuse")
+        if settings.method in ("ir", "bidir", "vbnl"):
+            sub.prop(settings, "path_reuse")
+            sub.prop(settings, "path_threshold")
+        if settings.method != "vbnl":
             if settings.method == "smc":
                 sub.prop(settings, "smc_replacements")
                 sub.prop(settings, "smc_warmup")

@@ -82,7 +82,12 @@ class VPLGISettings(bpy.types.PropertyGroup):
     path_reuse: bpy.props.BoolProperty(
         name="Path Reuse", default=_PLACE.path_reuse,
         description="In animations, keep light paths between frames and re-trace only those that moving objects "
-                    "cut (Instant Radiosity)")
+                    "cut or lights move (Instant Radiosity, Bidirectional, Virtual Blue Noise)")
+    path_threshold: bpy.props.FloatProperty(
+        name="Path Threshold", default=_PLACE.path_threshold, min=0.0, max=1.0, precision=4,
+        description="Path reuse: a moved light path keeps the rest of its vertices when the energy reflected at "
+                    "its new end changes less than this fraction (Moreau et al. eq. 2); 0 re-traces every moved "
+                    "segment")
     bake_directory: bpy.props.StringProperty(
         name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
         description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
@@ -93,7 +98,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               method=self.method, indirect_samples=self.indirect_samples,
-                              placement=MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse, smc=replace(
+                              placement=MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse,
+                                                         path_threshold=self.path_threshold, smc=replace(
                                   _SMC, replacements=self.smc_replacements, warmup=self.smc_warmup),
                                   vbnl=VBNLSettings(
                                   photons=self.photons, elimination=self.elimination,

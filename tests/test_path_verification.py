@@ -7,6 +7,7 @@ from vpl_addon.gather import GatherSettings
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodSettings
 from vpl_addon.motion import Motion, Snapshot
+from vpl_addon.light_paths import trace_until
 from vpl_addon.path_verification import LightPathStore, segments_crossing_boxes
 from vpl_addon.render import RenderSettings, render
 from vpl_addon.scene import Scene
@@ -52,7 +53,8 @@ def test_verification_retraces_only_paths_the_moved_block_cuts():
     tracer.close()
     tracer = Tracer(after.triangles)
     try:
-        retraced = store.verify(after, tracer, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6)
+        retraced = store.update(after, tracer, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6,
+                                threshold=0.0)
         assert 0 < retraced < paths / 4 and 0 < store.rays_last_frame < full_rays / 3
         assert store.paths == paths
         lo, hi = motion.boxes[1]
@@ -62,7 +64,7 @@ def test_verification_retraces_only_paths_the_moved_block_cuts():
         in_old = ((store.vpls.position >= lo + 1e-3) & (store.vpls.position <= hi - 1e-3)).all(axis=1)
         assert not (in_old & ~on_new).any()  # nothing floats where the block was
         assert len(np.unique(store.vpls.path)) <= paths and store.vpls.path.max() < paths
-        assert store.verify(after, tracer, LightSet(after), [], np.random.default_rng(2), 3) == 0
+        assert store.update(after, tracer, LightSet(after), [], np.random.default_rng(2), 3) == 0
         assert store.rays_last_frame == 0
     finally:
         tracer.close()
@@ -95,3 +97,100 @@ def test_ir_in_a_sequence_reuses_paths_and_lights_like_a_full_retrace():
     b = results[False][1].passes["Diffuse Indirect"]
     assert np.isfinite(a).all() and (a >= 0).all()
     assert a.mean() == pytest.approx(b.mean(), rel=0.1)
+
+
+def room_with_lamp(x=0.0, power=300.0, radius=0.05):
+    """room_with_block with its lamp a sphere of the given radius at (x, 0, 2.5)."""
+    s = room_with_block(0.0)
+    return Scene.build(s.triangles, s.materials, [PointLight("lamp", [x, 0, 2.5], [power] * 3, radius=radius)],
+                       s.camera, object_id=s.object_id, object_names=s.object_names, max_bounces=3)
+
+
+def test_paths_follow_a_moving_light_through_distribution_maps():
+    """Sec. 3.1: a lamp moved by 0.1 m carries its paths' emission samples; the distribution map keeps each cell
+    near its target; the result agrees with a full re-trace; a power change rescales without a ray; a static frame
+    traces nothing."""
+    from vpl_addon import distribution_map as dm
+    a, b = room_with_lamp(0.0), room_with_lamp(0.1)
+    assert Motion.between(Snapshot.of(a), Snapshot.of(b)).lights_changed
+    ta, tb = Tracer(a.triangles), Tracer(b.triangles)
+    try:
+        store = LightPathStore()
+        store.trace(a, ta, LightSet(a), 3000, np.random.default_rng(0), 3)
+        paths = store.paths
+        ids = set(store.segments["path"][store.segments["bounce"] == 1].tolist())
+        assert store.update(b, tb, LightSet(b), [], np.random.default_rng(1), 3) is not None
+        first = store.segments["bounce"] == 1
+        lamp = store.emitters[0]
+        assert np.allclose(np.linalg.norm(store.segments["origin"][first] - [0.1, 0, 2.5], axis=1), 0.05)
+        kept = ids & set(store.segments["path"][first].tolist())
+        assert len(kept) > 0.8 * len(ids) and store.paths == paths  # pruned and filled only a few
+        counts = np.bincount(dm.cells(lamp, store.segments["origin"][first], store.segments["direction"][first]),
+                             minlength=int(np.prod(dm.bins(lamp))))
+        assert abs(counts.sum() - paths) < 0.05 * paths  # DM_C sums to DM_T's total
+        fresh, _ = trace_until(b, tb, LightSet(b), 3000, np.random.default_rng(2), 3)
+        assert store.vpls.intensity.sum() == pytest.approx(fresh.intensity.sum(), rel=0.03)
+        for bounce in (2, 3):
+            got = store.vpls.intensity[store.vpls.bounce == bounce].sum()
+            assert got == pytest.approx(fresh.intensity[fresh.bounce == bounce].sum(), rel=0.15)
+        assert store.update(b, tb, LightSet(b), [], np.random.default_rng(3), 3) == 0 and store.rays_last_frame == 0
+        before = store.vpls.intensity.copy()
+        brighter = room_with_lamp(0.1, power=600.0)
+        assert store.update(brighter, tb, LightSet(brighter), [], np.random.default_rng(4), 3) == 0
+        assert store.rays_last_frame == 0 and np.allclose(store.vpls.intensity, 2.0 * before)
+        bigger = room_with_lamp(0.1, radius=0.2)  # a new shape: its paths are emitted again
+        assert store.update(bigger, tb, LightSet(bigger), [], np.random.default_rng(5), 3) > 0.9 * paths
+    finally:
+        ta.close()
+        tb.close()
+
+
+def test_threshold_keeps_tails_that_reflect_the_same_energy():
+    """Eq. 2 / Algorithm 1: with T = 0.1 % the block's move re-traces fewer paths than T = 0 (segments through its
+    box that hit where they hit before keep their tails) and no more rays; both agree with each other per bounce."""
+    before, after = room_with_block(0.0), room_with_block(0.3)
+    motion = Motion.between(Snapshot.of(before), Snapshot.of(after))
+    tb, ta = Tracer(before.triangles), Tracer(after.triangles)
+    try:
+        out = {}
+        for threshold in (0.0, 1e-3):
+            store = LightPathStore()
+            store.trace(before, tb, LightSet(before), 4000, np.random.default_rng(0), 3)
+            traced = store.update(after, ta, LightSet(after), motion.boxes, np.random.default_rng(1), 3, 1e-6,
+                                  threshold)
+            flux = [store.vpls.intensity[store.vpls.bounce == b].sum() for b in (1, 2, 3)]
+            out[threshold] = traced, store.rays_last_frame, flux, store
+        assert 0 < out[1e-3][0] < out[0.0][0] and out[1e-3][1] <= out[0.0][1]
+        assert out[1e-3][2] == pytest.approx(out[0.0][2], rel=0.05)
+        store = out[1e-3][3]
+        lo, hi = motion.boxes[0]
+        in_old = ((store.vpls.position >= lo + 1e-3) & (store.vpls.position <= hi - 1e-3)).all(axis=1)
+        lo, hi = motion.boxes[1]
+        on_new = ((store.vpls.position >= lo - 1e-6) & (store.vpls.position <= hi + 1e-6)).all(axis=1)
+        assert not (in_old & ~on_new).any()  # nothing floats where the block was
+    finally:
+        ta.close()
+        tb.close()
+
+
+@pytest.mark.parametrize("method", ["bidir", "vbnl"])
+def test_bidir_and_vbnl_keep_their_light_paths_in_the_same_store(method):
+    """bidir's standard VPLs and vbnl's photons come from a LightPathStore too: the block's move traces a fraction
+    of a full re-trace's light-path rays, and the frame stays finite and as bright."""
+    from vpl_addon.methods.vbnl import VBNLSettings
+    settings = dict(samples=1, light_samples=0, method=method, passes=("Diffuse Indirect",),
+                    gather=GatherSettings(interleave=1, clamp=0.0))
+    out = {}
+    for reuse in (True, False):
+        state = SequenceState(method)
+        for frame, offset in ((1, 0.0), (2, 0.3)):
+            placement = MethodSettings(vpls=300, path_reuse=reuse, vbnl=VBNLSettings(photons=8192))
+            result = render(room_with_block(offset), RenderSettings(**settings, seed=frame_seed(0, frame),
+                                                                    placement=placement), sequence=state)
+        assert isinstance(state.method_state.paths, LightPathStore)
+        out[reuse] = result
+        state.close()
+    assert out[True].info["light_path_rays"] * 3 < out[False].info["light_path_rays"]
+    a, b = out[True].passes["Diffuse Indirect"], out[False].passes["Diffuse Indirect"]
+    assert np.isfinite(a).all() and (a >= 0).all()
+    assert a.mean() == pytest.approx(b.mean(), rel=0.15)

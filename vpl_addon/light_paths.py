@@ -22,27 +22,34 @@ BATCH_PATHS = 1 << 15
 
 
 def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max_bounces: int,
-                light_prob: np.ndarray | None = None, first_path: int = 0, start=None, record=None) -> VirtualLights:
+                light_prob: np.ndarray | None = None, first_path: int = 0, start=None, record=None,
+                start_hits=None) -> VirtualLights:
     """VPLs of ``count`` light paths with at most ``max_bounces`` surface interactions (not yet divided by the
     number of paths). Path verification (``path_verification``) continues paths from a given segment with
     ``start = (origins, dirs, power, path ids, bounce)`` instead of emitting, and keeps every traced segment through
-    ``record(bounce, origins, dirs, power, path ids)``."""
+    ``record(bounce, origins, dirs, power, path ids, light)`` (``light``: the index of each emitted path's light in
+    ``lights``, None past the emission). ``start_hits``: the given segments' hits when the caller traced them
+    already (path verification's threshold test), so they are not traced twice."""
     if len(lights) == 0 or max_bounces <= 0 or (count <= 0 if start is None else len(start[0]) == 0):
         return VirtualLights.empty()
     rng = LatinHypercube(rng)
     glossy = scene.materials.glossy
-    if start is None:
+    light = None
+    if start is None and record is not None:
+        origins, dirs, power, light = lights.emit(count, rng, light_prob, with_light=True)
+    elif start is None:
         origins, dirs, power = lights.emit(count, rng, light_prob)
-        path, first_bounce = np.arange(first_path, first_path + count), 1
     else:
         origins, dirs, power, path, first_bounce = start
+    if start is None:
+        path, first_bounce = np.arange(first_path, first_path + count), 1
     found = []
     for bounce in range(first_bounce, max_bounces + 1):
         if len(origins) == 0:
             break
         if record is not None:
-            record(bounce, origins, dirs, power, path)
-        hits = tracer.intersect(origins, dirs)
+            record(bounce, origins, dirs, power, path, light if bounce == first_bounce else None)
+        hits = start_hits if bounce == first_bounce and start_hits is not None else tracer.intersect(origins, dirs)
         rows = np.nonzero(hits.hit)[0]
         surf = shade(scene, dirs, hits, rows)
         incident = power[rows]

@@ -476,9 +476,10 @@ class LightSet:
         """The same set restricted to light ``index``."""
         return LightSet(lights=[self.lights[index]], center=self.center, radius=self.radius)
 
-    def emit(self, count: int, rng: np.random.Generator, prob: np.ndarray | None = None):
+    def emit(self, count: int, rng: np.random.Generator, prob: np.ndarray | None = None, with_light: bool = False):
         """``count`` light-path starts, lights chosen with ``prob`` (default: by power); power is divided by the
-        selection probability, so the mean over paths estimates the total emitted power."""
+        selection probability, so the mean over paths estimates the total emitted power. ``with_light`` adds the
+        index of each start's light (path verification follows a light's paths when it moves)."""
         prob = self.prob if prob is None else prob
         cdf = np.cumsum(prob)
         cdf[-1] = 1.0
@@ -489,7 +490,7 @@ class LightSet:
             if len(m):
                 o, d, w = light.emit(len(m), rng, self.center, self.radius)
                 origins[m], dirs[m], power[m] = o, d, w / prob[index]
-        return origins, dirs, power
+        return (origins, dirs, power, choice) if with_light else (origins, dirs, power)
 
     def sample_incident(self, p, n, u_select, u1, u2, owner=None):
         """One sample of a local light per sample: (wi, dist, L_e / pdf including 1/p_select, normal at the light

@@ -6,8 +6,9 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
 * ``begin(scene)`` digests the frame (``motion.Snapshot``), compares it with the previous one (``motion.Motion``)
   and returns the tracer: the previous frame's BVH when no triangle moved, a new one otherwise;
 * ``place(name, context, settings)`` places the frame's virtual lights. A method module that keeps its own state
-  across frames (``smc``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up, so a
-  chunk of frames can begin on another machine) and ``advance(state, context, settings, motion) -> (lights, info)``.
+  across frames (``smc``; ``ir``, ``bidir`` and ``vbnl`` their light paths, ``path_verification``) provides
+  ``start(context, settings) -> state`` (a cold start, including any warm-up, so a chunk of frames can begin on
+  another machine) and ``advance(state, context, settings, motion) -> (lights, info)``.
   For the others the rule is the static one: when nothing they depend on changed (geometry, lights, shading, and the
   camera for the view-dependent ones), the previous frame's lights are reused and no light path is traced; the
   placement generator is put back where it was after they were placed, so the frame renders exactly as that one.

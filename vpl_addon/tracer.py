@@ -34,6 +34,13 @@ class Hits:
     def hit(self) -> np.ndarray:
         return self.prim >= 0
 
+    def take(self, index) -> "Hits":
+        return Hits(self.prim[index], self.t[index], self.u[index], self.v[index])
+
+    @staticmethod
+    def concat(parts: list["Hits"]) -> "Hits":
+        return Hits(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("prim", "t", "u", "v")))
+
 
 class Tracer:
     """Closest-hit and occlusion queries against the scene's triangles."""

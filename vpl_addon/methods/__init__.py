@@ -31,8 +31,12 @@ class MethodSettings:
     bidir: bidir.BidirSettings = field(default_factory=bidir.BidirSettings)
     vbnl: vbnl.VBNLSettings = field(default_factory=vbnl.VBNLSettings)
     smc: smc.SMCSettings = field(default_factory=smc.SMCSettings)
-    # in a sequence, keep light paths between frames and re-trace only those that moved objects cut (Moreau et al.)
+    # in a sequence, keep ir's and bidir's light paths between frames and re-trace only those that moved objects
+    # cut or moved lights carry (Moreau et al.)
     path_reuse: bool = True
+    # T of eq. 2 (Moreau et al. sec. 3.3): a moved segment whose new end reflects within T of its old energy keeps
+    # the rest of its path (the paper's 0.1 %); 0 re-traces every moved segment
+    path_threshold: float = 1e-3
 
 
 def place(name: str, context: MethodContext, settings: MethodSettings):

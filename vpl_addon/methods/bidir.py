@@ -7,10 +7,14 @@
    small uniform floor in the CDF (sec. 3.2, 4).
 4. Kept reverse VPLs get their density re-estimated with M = 50 camera points (sec. 4, "a very simple trick").
 
-The budget (``MethodSettings.vpls``) is N', the number of VPLs the gather sees."""
+The budget (``MethodSettings.vpls``) is N', the number of VPLs the gather sees.
+
+In a sequence the light paths of the standard VPLs are kept from frame to frame and verified against moving objects
+and lights (``path_verification``, Moreau et al.); the reverse VPLs, the power estimates and the resampling are done
+again in every frame in which something moved (the camera included)."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -19,6 +23,7 @@ from ..camera_points import CameraPoints
 from ..gather import clamp_distance
 from ..light_paths import trace_until
 from ..light_selection import camera_light_distribution
+from ..path_verification import LightPathStore, follow
 from ..resampling import camera_power, resample
 from ..virtual_lights import REVERSE, VirtualLights
 
@@ -41,7 +46,27 @@ class BidirSettings:
     clamp: float = 0.5  # geometry clamping inside the estimates (as GatherSettings.clamp)
 
 
-def place(context, settings):
+@dataclass
+class BidirState:
+    """What bidir keeps in a sequence: its standard light paths, and the last frame's lights for static frames."""
+    paths: LightPathStore = field(default_factory=LightPathStore)
+    lights: VirtualLights | None = None
+    info: dict = field(default_factory=dict)
+
+
+def start(context, settings) -> BidirState:
+    return BidirState()
+
+
+def advance(state: BidirState, context, settings, motion):
+    if state.lights is not None and motion.static(view_dependent=True):
+        kept = {k: v for k, v in state.info.items() if k != "light_path_rays"}  # as any method's static frame
+        return state.lights, {**kept, "light_paths": 0, "reused": True}
+    state.lights, state.info = place(context, settings, state, motion)
+    return state.lights, state.info
+
+
+def place(context, settings, state: BidirState | None = None, motion=None):
     b: BidirSettings = settings.bidir
     scene, tracer, rng = context.scene, context.tracer, context.rng
     kept_count = max(1, int(settings.vpls))
@@ -50,7 +75,13 @@ def place(context, settings):
     d_min = clamp_distance(scene.surface_area, kept_count, b.clamp)
 
     light_prob = camera_light_distribution(context.lights, pool, tracer, rng, floor=b.light_floor)
-    standard, paths = trace_until(scene, tracer, context.lights, total // 2, rng, context.max_bounces, light_prob)
+    if state is None:
+        standard, paths = trace_until(scene, tracer, context.lights, total // 2, rng, context.max_bounces,
+                                      light_prob)
+    else:
+        paths = follow(state.paths, context, motion, total // 2, settings.path_reuse, settings.path_threshold,
+                       light_prob)
+        standard = state.paths.lights()
     reverse = reverse_vpls.place(scene, tracer, context.lights, pool, total - total // 2, standard, rng,
                                  context.max_bounces, b.density_paths_coarse, b.direct_samples, b.standard_samples,
                                  d_min)
@@ -67,4 +98,6 @@ def place(context, settings):
     info = {"light_paths": paths, "reverse_attempts": reverse.attempts, "standard": len(standard),
             "reverse": len(reverse.vpls),
             "kept": len(kept), "kept_reverse_share": kept.reverse_share}
+    if state is not None:
+        info["light_path_rays"] = state.paths.rays_last_frame
     return kept, info

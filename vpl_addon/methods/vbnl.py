@@ -14,6 +14,10 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
    limit holds for the whole path).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
+
+In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
+(``path_verification``, Moreau et al.); the lights are placed and the photons split among them again in every frame
+in which something moved (the camera included).
 """
 from __future__ import annotations
 
@@ -25,6 +29,7 @@ import numpy as np
 
 from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
+from ..path_verification import LightPathStore, follow
 from ..photon_lights import ALPHA, SLAB, PhotonLights
 from ..sample_elimination import MODES, eliminate
 from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
@@ -126,7 +131,27 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
     return out
 
 
-def place(context, settings):
+@dataclass
+class VBNLState:
+    """What vbnl keeps in a sequence: its photons' light paths, and the last frame's lights for static frames."""
+    paths: LightPathStore = field(default_factory=LightPathStore)
+    lights: PhotonLights | None = None
+    info: dict = field(default_factory=dict)
+
+
+def start(context, settings) -> VBNLState:
+    return VBNLState()
+
+
+def advance(state: VBNLState, context, settings, motion):
+    if state.lights is not None and motion.static(view_dependent=True):
+        kept = {k: v for k, v in state.info.items() if k != "light_path_rays"}  # as any method's static frame
+        return state.lights, {**kept, "light_paths": 0, "reused": True}
+    state.lights, state.info = place(context, settings, state, motion)
+    return state.lights, state.info
+
+
+def place(context, settings, state: VBNLState | None = None, motion=None):
     s = settings.vbnl
     marks = {"start": time.perf_counter()}
     position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
@@ -138,20 +163,32 @@ def place(context, settings):
     bounces = max(context.max_bounces, 1)
     by_bounce = np.zeros((len(lights), bounces, 3))
     traced = 0
-    while traced < s.photons and len(lights):
-        count = min(PATHS_PER_BATCH, s.photons - traced)
-        photons = trace_paths(context.scene, context.tracer, context.lights, count, context.rng,
-                              context.max_bounces, first_path=traced)
-        by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
-                                   bounces)
-        traced += count
-    lights.by_bounce = np.cumsum(by_bounce, axis=1) / max(traced, 1)
+    if state is None:
+        while traced < s.photons and len(lights):
+            count = min(PATHS_PER_BATCH, s.photons - traced)
+            photons = trace_paths(context.scene, context.tracer, context.lights, count, context.rng,
+                                  context.max_bounces, first_path=traced)
+            by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
+                                       bounces)
+            traced += count
+        by_bounce /= max(traced, 1)
+    elif len(lights):  # the kept photons (intensities already divided by the number of paths)
+        traced = follow(state.paths, context, motion, 0, settings.path_reuse, settings.path_threshold,
+                        paths=s.photons)
+        photons = state.paths.lights()
+        for first in range(0, len(photons), POINTS_PER_BATCH):
+            part = photons.take(slice(first, first + POINTS_PER_BATCH))
+            by_bounce += lights.spread(part.position, part.normal, part.intensity, part.bounce - 1, bounces)
+    lights.by_bounce = np.cumsum(by_bounce, axis=1)
     lights.intensity = lights.by_bounce[:, -1]
     marks["photon_splitting"] = time.perf_counter()
     stages = list(marks)
     seconds = {b: marks[b] - marks[a] for a, b in zip(stages, stages[1:])}
-    return lights, {"vpls": len(lights), "candidates": len(position), "light_paths": traced, "seconds": seconds,
-                    "covered_share": float((lights.intensity.sum(axis=1) > 0).mean()) if len(lights) else 0.0}
+    info = {"vpls": len(lights), "candidates": len(position), "light_paths": traced, "seconds": seconds,
+            "covered_share": float((lights.intensity.sum(axis=1) > 0).mean()) if len(lights) else 0.0}
+    if state is not None:
+        info["light_path_rays"] = state.paths.rays_last_frame
+    return lights, info
 
 
 def gather_samples(settings) -> int:
