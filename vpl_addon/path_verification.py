@@ -32,6 +32,8 @@ light that appeared or vanished, or a change of the shading re-traces every path
 """
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+
 import numpy as np
 
 from . import distribution_map as dm
@@ -325,3 +327,22 @@ def follow(store: LightPathStore, context, motion, target: int, reuse: bool = Tr
         store.trace(scene, tracer, context.lights, target, context.rng, context.max_bounces, light_prob, paths)
         traced = store.paths
     return traced
+
+
+@dataclass
+class PlacedFromPaths:
+    """What a method that places its lights again in every frame something moved keeps in a sequence (``bidir``'s
+    standard VPLs, ``vbnl``'s photons): its light paths, followed by ``follow``, and the last frame's lights and
+    info, reused as they are in a static frame."""
+    paths: LightPathStore = field(default_factory=LightPathStore)
+    lights: object = None
+    info: dict = field(default_factory=dict)
+
+    def advance(self, place, context, settings, motion):
+        """The frame's (lights, info): the last ones if nothing moved, else ``place(context, settings, self,
+        motion)``."""
+        if self.lights is not None and motion.static(view_dependent=True):
+            kept = {k: v for k, v in self.info.items() if k != "light_path_rays"}  # as any method's static frame
+            return self.lights, {**kept, "light_paths": 0, "reused": True}
+        self.lights, self.info = place(context, settings, self, motion)
+        return self.lights, self.info

@@ -14,7 +14,7 @@ and lights (``path_verification``, Moreau et al.); the reverse VPLs, the power e
 again in every frame in which something moved (the camera included)."""
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -23,7 +23,7 @@ from ..camera_points import CameraPoints
 from ..gather import clamp_distance
 from ..light_paths import trace_until
 from ..light_selection import camera_light_distribution
-from ..path_verification import LightPathStore, follow
+from ..path_verification import PlacedFromPaths, follow
 from ..resampling import camera_power, resample
 from ..virtual_lights import REVERSE, VirtualLights
 
@@ -46,27 +46,15 @@ class BidirSettings:
     clamp: float = 0.5  # geometry clamping inside the estimates (as GatherSettings.clamp)
 
 
-@dataclass
-class BidirState:
-    """What bidir keeps in a sequence: its standard light paths, and the last frame's lights for static frames."""
-    paths: LightPathStore = field(default_factory=LightPathStore)
-    lights: VirtualLights | None = None
-    info: dict = field(default_factory=dict)
+def start(context, settings) -> PlacedFromPaths:
+    return PlacedFromPaths()
 
 
-def start(context, settings) -> BidirState:
-    return BidirState()
+def advance(state: PlacedFromPaths, context, settings, motion):
+    return state.advance(place, context, settings, motion)
 
 
-def advance(state: BidirState, context, settings, motion):
-    if state.lights is not None and motion.static(view_dependent=True):
-        kept = {k: v for k, v in state.info.items() if k != "light_path_rays"}  # as any method's static frame
-        return state.lights, {**kept, "light_paths": 0, "reused": True}
-    state.lights, state.info = place(context, settings, state, motion)
-    return state.lights, state.info
-
-
-def place(context, settings, state: BidirState | None = None, motion=None):
+def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     b: BidirSettings = settings.bidir
     scene, tracer, rng = context.scene, context.tracer, context.rng
     kept_count = max(1, int(settings.vpls))

@@ -29,7 +29,7 @@ import numpy as np
 
 from ..gbuffer import GBuffer
 from ..light_paths import trace_paths
-from ..path_verification import LightPathStore, follow
+from ..path_verification import PlacedFromPaths, follow
 from ..photon_lights import ALPHA, SLAB, PhotonLights
 from ..sample_elimination import MODES, eliminate
 from ..sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
@@ -131,27 +131,15 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
     return out
 
 
-@dataclass
-class VBNLState:
-    """What vbnl keeps in a sequence: its photons' light paths, and the last frame's lights for static frames."""
-    paths: LightPathStore = field(default_factory=LightPathStore)
-    lights: PhotonLights | None = None
-    info: dict = field(default_factory=dict)
+def start(context, settings) -> PlacedFromPaths:
+    return PlacedFromPaths()
 
 
-def start(context, settings) -> VBNLState:
-    return VBNLState()
+def advance(state: PlacedFromPaths, context, settings, motion):
+    return state.advance(place, context, settings, motion)
 
 
-def advance(state: VBNLState, context, settings, motion):
-    if state.lights is not None and motion.static(view_dependent=True):
-        kept = {k: v for k, v in state.info.items() if k != "light_path_rays"}  # as any method's static frame
-        return state.lights, {**kept, "light_paths": 0, "reused": True}
-    state.lights, state.info = place(context, settings, state, motion)
-    return state.lights, state.info
-
-
-def place(context, settings, state: VBNLState | None = None, motion=None):
+def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     s = settings.vbnl
     marks = {"start": time.perf_counter()}
     position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
