@@ -296,19 +296,21 @@ class AreaLight(Light):
         factor = cos_l * self.spread_profile(cos_l) * self.area / np.maximum(d2, 1e-300)
         return wi, dist, factor[:, None] * self.radiance
 
+    def _frame(self):
+        """The rectangle's unit edge directions x, y, its normal z = x cross y, and its edge lengths."""
+        lx, ly = np.linalg.norm(self.axis_u), np.linalg.norm(self.axis_v)
+        x, y = self.axis_u / lx, self.axis_v / ly
+        return x, y, np.cross(x, y), lx, ly
+
     def _spherical_rectangle(self, p):
-        """The per-point part of Urena et al.'s sampling (their Algorithm 1 up to the solid angle): the local frame's
-        rectangle corner (x0, y0, z0) and far corner (x1, y1) seen from each point, b0, b1, k and the solid angle,
-        and the frame's z flipped so the rectangle lies below the point."""
-        ex, ey = self.axis_u, self.axis_v
-        lx, ly = np.linalg.norm(ex), np.linalg.norm(ey)
-        x, y = ex / lx, ey / ly
-        z = np.cross(x, y)
-        d = (self.center - 0.5 * ex - 0.5 * ey) - p
-        x0, y0, z0 = d @ x, d @ y, d @ z
-        flip = z0 > 0.0  # work in the frame where the rectangle lies below the point (z0 < 0)
-        z0 = np.where(flip, -z0, z0)
-        x1, y1 = x0 + lx, y0 + ly
+        """The per-point part of Urena et al.'s sampling (their Algorithm 1 up to the solid angle), (P,) each: the
+        rectangle's corner (x0, y0) in its frame seen from each point, the point's signed height zs over the
+        rectangle's plane (the algorithm works with z0 = -|zs|, the rectangle below the point), b0, b1, k and the
+        solid angle (0 where degenerate)."""
+        x, y, z, lx, ly = self._frame()
+        d = (self.center - 0.5 * self.axis_u - 0.5 * self.axis_v) - p
+        x0, y0, zs = d @ x, d @ y, d @ z
+        z0 = -np.abs(zs)
         zero = np.zeros_like(z0)
 
         def unit(a, b, c):
@@ -316,11 +318,12 @@ class AreaLight(Light):
             return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
 
         # normals of the spherical quad's edges in the local frame (x, y, z)
-        n0, n1, n2, n3 = unit(zero, z0, -y0), unit(-z0, zero, x1), unit(zero, -z0, y1), unit(z0, zero, -x0)
+        n0, n1, n2, n3 = unit(zero, z0, -y0), unit(-z0, zero, x0 + lx), unit(zero, -z0, y0 + ly), unit(z0, zero, -x0)
         g0, g1, g2, g3 = (np.arccos(np.clip(-dot(a, b), -1, 1)) for a, b in ((n0, n1), (n1, n2), (n2, n3), (n3, n0)))
         k = 2.0 * np.pi - g2 - g3
-        return dict(x0=x0, y0=y0, z0=z0, x1=x1, y1=y1, b0=n0[:, 2], b1=n2[:, 2], k=k,
-                    solid=np.maximum(g0 + g1 - k, 0.0), zsign=np.where(flip, -1.0, 1.0), frame=(x, y, z))
+        solid = g0 + g1 - k
+        solid = np.where(np.isfinite(solid) & (solid > 1e-12), solid, 0.0)
+        return x0, y0, zs, n0[:, 2], n2[:, 2], k, solid
 
     def _sample_spherical_rectangle(self, p, u1, u2, owner=None):
         """Uniform in the solid angle the rectangle subtends (Urena, Fajardo, King: "An Area-Preserving
@@ -328,11 +331,11 @@ class AreaLight(Light):
         The per-point part is computed once per point of ``p``, the rest per sample (``owner`` as in
         ``Light.sample_incident``)."""
         per_point = self._spherical_rectangle(p)
-        x, y, z = per_point.pop("frame")
         if owner is not None:
-            per_point = {key: value[owner] for key, value in per_point.items()}
-        x0, y0, z0, x1, y1, b0, b1, k, solid, zsign = (per_point[key] for key in (
-            "x0", "y0", "z0", "x1", "y1", "b0", "b1", "k", "solid", "zsign"))
+            per_point = (value[owner] for value in per_point)
+        x0, y0, zs, b0, b1, k, solid = per_point
+        x, y, z, lx, ly = self._frame()
+        x1, y1, z0 = x0 + lx, y0 + ly, -np.abs(zs)
         au = u1 * solid + k
         with np.errstate(divide="ignore", invalid="ignore"):
             fu = (np.cos(au) * b0 - b1) / np.sin(au)
@@ -343,12 +346,12 @@ class AreaLight(Light):
             h1 = y1 / np.sqrt(dd * dd + y1 * y1)
             hv = h0 + u2 * (h1 - h0)
             yv = np.where(hv * hv < 1.0 - 1e-6, hv * dd / np.sqrt(np.maximum(1.0 - hv * hv, 1e-300)), y1)
-        to_l = np.nan_to_num(xu)[:, None] * x + np.nan_to_num(yv)[:, None] * y + (z0 * zsign)[:, None] * z
+        local = np.stack([np.nan_to_num(xu, copy=False), np.nan_to_num(yv, copy=False), zs], axis=1)
+        to_l = local @ np.stack([x, y, z])
         dist = np.linalg.norm(to_l, axis=1)
         wi = to_l / np.maximum(dist, 1e-300)[:, None]
         cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
-        ok = (cos_l > 0.0) & np.isfinite(solid) & (solid > 1e-12)
-        factor = np.where(ok, solid * self.spread_profile(cos_l), 0.0)
+        factor = np.where(cos_l > 0.0, solid * self.spread_profile(cos_l), 0.0)
         return wi, dist, factor[:, None] * self.radiance
 
     def emit(self, count, rng, center, radius):
