@@ -44,33 +44,36 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     step = max(1, RAYS_PER_BATCH // samples)
     for lo in range(0, k, step):
         hi = min(k, lo + step)
-        idx = np.repeat(np.arange(lo, hi), samples)
+        owner = np.repeat(np.arange(hi - lo), samples)  # the point of each light sample, within the batch
+        at = (lo, hi, owner, *(np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns)))
         given = numbers or (None,) * 4
-        u1, u2, w1, w2 = (rng.random(len(idx)) if a is None else a[lo:hi].ravel() for a in given)
+        u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
             # stratify the light choice over the samples of one point
-            strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(idx))) / samples
-            wi, dist, weight, target_n = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, idx - lo)
-            _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer, glossy)
+            strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
+            wi, dist, weight, target_n = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
+            _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy)
         if lights.world is not None:
-            wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, idx - lo)
-            _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, None, tracer, glossy)
+            wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
+            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy)
     return out / samples, shine / samples
 
 
-def _accumulate(out, shine, lo, hi, idx, p, ng, ns, wi, dist, weight, target_n, tracer, glossy):
+def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy):
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
-    weight * (f cos of the glossy lobe) * V."""
-    cos = dot(ns[idx], wi)
+    weight * (f cos of the glossy lobe) * V. ``at`` = (lo, hi, the point of each sample within lo:hi, and the
+    position, geometric and shading normal of each sample's point)."""
+    lo, hi, owner, p, ng, ns = at
+    cos = dot(ns, wi)
     total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
-    sel = np.nonzero((cos > 0.0) & (dot(ng[idx], wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
+    sel = np.nonzero((cos > 0.0) & (dot(ng, wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    sel = sel[tracer.visible(p[idx[sel]], ng[idx[sel]], wi[sel], dist[sel], on_geometry)]
-    at = idx[sel]
-    out[lo:hi] += group_sum(at - lo, weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
+    sel = sel[tracer.visible(p[sel], ng[sel], wi[sel], dist[sel], on_geometry)]
+    out[lo:hi] += group_sum(owner[sel], weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
     if glossy is not None:
-        lit = np.nonzero(glossy.weight[at].max(axis=1) > 0.0)[0]
-        value, _ = glossy.evaluate(wi[sel[lit]], at[lit])
-        shine[lo:hi] += group_sum(at[lit] - lo, weight[sel[lit]] * value, hi - lo)
+        point = owner[sel] + lo
+        lit = np.nonzero(glossy.weight[point].max(axis=1) > 0.0)[0]
+        value, _ = glossy.evaluate(wi[sel[lit]], point[lit])
+        shine[lo:hi] += group_sum(owner[sel[lit]], weight[sel[lit]] * value, hi - lo)
