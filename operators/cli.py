@@ -207,7 +207,7 @@ def cmd_compare(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import CYCLES, Bench, BenchError, Options, all_methods, parse_budgets
+    from .bench import Bench, BenchError, Options, all_methods, parse_budgets
     methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else list(all_methods())
     for m in methods:
         if m not in all_methods():
