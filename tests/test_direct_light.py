@@ -119,6 +119,22 @@ def test_disk_area_light():
     assert value == pytest.approx(radiance * r * r / (H * H + r * r), rel=1e-2)
 
 
+def test_several_lights_add_up():
+    """Several local lights: each light sample picks one of them and the per-point work (the spherical rectangle's
+    set-up) is done for the points that picked it; the sum must still be each light's own light added up."""
+    lights = [AreaLight("left", [-0.6, 0, H], [0.5, 0, 0], [0, 0.3, 0], [0, 0, -1], [40.0] * 3),
+              AreaLight("right", [0.8, 0.2, 0.7 * H], [0.2, 0, 0], [0, 0.6, 0], [0, 0, -1], [25.0] * 3),
+              AreaLight("disk", [0, 0.5, H], [0.4, 0, 0], [0, 0.4, 0], [0, 0, -1], [30.0] * 3, round=True),
+              PointLight("lamp", [0.3, -0.4, 1.5 * H], [60.0] * 3)]
+    def image(scene_lights):  # a 3 m x 3 m patch of the floor: every pixel a different point
+        return render(plane_scene(scene_lights, view=3.0, res=16), SETTINGS).passes["Diffuse Direct"][..., 0]
+    alone = sum(image([light]) for light in lights)
+    together = image(lights)
+    assert np.isfinite(together).all() and alone.min() > 0.0
+    assert np.abs(together - alone).mean() / alone.mean() < 0.02
+    assert together.mean() == pytest.approx(alone.mean(), rel=1e-2)
+
+
 def test_area_light_is_one_sided():
     light = AreaLight("a", [0, 0, H], [0.5, 0, 0], [0, 0.5, 0], [0, 0, 1], [40.0] * 3)
     assert diffuse_direct(plane_scene([light], view=0.02))[0] == 0.0
