@@ -10,9 +10,10 @@ by ``tests/test_cycles_direct.py``:
 * emissive triangles: radiance = Emission Color x Strength, emitted from both sides.
 * world: constant radiance = Background Color x Strength from every direction.
 
-``sample_incident(p, n, u1, u2)`` returns, for shading points p with normals n, unit directions toward the light,
-the distance to the sampled light point (inf for distant lights), and L_e / pdf in solid angle: the estimator of
-the direct diffuse term is then ``le_over_pdf * max(0, n.wi) / pi * V``.
+``sample_incident(p, n, u1, u2, owner)`` returns, for light samples at shading points p with normals n (sample i at
+point ``owner[i]``), unit directions toward the light, the distance to the sampled light point (inf for distant
+lights), and L_e / pdf in solid angle: the estimator of the direct diffuse term is then
+``le_over_pdf * max(0, n.wi) / pi * V``.
 
 ``emit(count, rng, center, radius)`` starts light paths (Keller's Instant Radiosity): origins, unit directions and
 the power each carries (emitted radiance over the joint pdf of position and direction, so the mean over paths is the
