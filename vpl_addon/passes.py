@@ -1,7 +1,9 @@
 """Render passes named and defined as Cycles defines them, and the guard that keeps bad numbers out of them.
 
 ``Diffuse Direct`` / ``Diffuse Indirect``: light reflected by a white diffuse surface at the primary hit (NOT
-multiplied by albedo); ``Diffuse Color``: the albedo; ``Emit``: emitted radiance; ``Combined``: RGBA with alpha the
+multiplied by albedo), per pixel the albedo-weighted mean over its samples (Cycles divides these passes by
+``Diffuse Color``: at a pixel on the edge of a wall and the background, or a wall and a metal floor, they hold the
+wall's light); ``Diffuse Color``: the albedo; ``Emit``: emitted radiance; ``Combined``: RGBA with alpha the
 geometry coverage of a transparent film. ``(Diffuse Direct + Diffuse Indirect) * Diffuse Color + Emit`` is the
 diffuse part of ``Combined``. ``Glossy Direct`` / ``Glossy Indirect``: light reflected by the glossy (metallic GGX)
 lobe at the primary hit divided by ``Glossy Color``, the lobe's directional albedo as Cycles estimates it, so

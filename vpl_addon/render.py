@@ -7,9 +7,11 @@ text)`` is called after each block and may return False to cancel (ESC in Blende
 Work a pass does not need is skipped: no lights, no shadow rays and no VPLs; no ``Diffuse Indirect`` requested (or
 method "none"), no VPLs; no metallic material, nothing glossy.
 
-Passes divided by a colour (``Glossy Direct`` / ``Glossy Indirect`` by ``Glossy Color``) are, as in Cycles, the sum
-of the pixel's light over the sum of its colour. The diffuse passes hold light only where the surface has a diffuse
-colour (zero on pure metal, as in Cycles).
+The light passes are, as in Cycles, divided by their colour: the sum over a pixel's samples of light times colour
+over the sum of colour (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, ``Glossy Direct`` /
+``Glossy Indirect`` by ``Glossy Color``), so a pixel half wall and half background or metal holds the wall's light,
+not half of it, and ``light pass x colour pass`` is the pixel's share of ``Combined``. The diffuse passes are zero
+where no sample has a diffuse colour (pure metal, as in Cycles).
 """
 from __future__ import annotations
 
@@ -203,7 +205,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     at = gbuf.sample[shiny] // gbuf.spp
                     shine[pixels] = group_sum(at, reflected, len(pixels))
                     shine_color[pixels] = group_sum(at, lobe.color[shiny], len(pixels))
-                indirect[pixels] = group_sum(gbuf.sample[rows] // gbuf.spp, light, len(pixels)) / gather_spp
+                at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
+                indirect[pixels] = _divide(group_sum(at, sub.albedo * light, len(pixels)),
+                                           group_sum(at, sub.albedo, len(pixels)))
                 diffuse_seen[pixels] = np.bincount(gbuf.sample[rows] // gbuf.spp, minlength=len(pixels)) > 0
                 guides = np.nonzero(gathering)[0]  # the filter's guides: what the gathering samples see
                 local = gbuf.sample[guides] // gbuf.spp
@@ -215,7 +219,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             images[P.COMBINED][pixels, 3] = gbuf.coverage
             images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo)
             if P.DIFFUSE_DIRECT in want:
-                images[P.DIFFUSE_DIRECT][pixels] = gbuf.splat(direct * diffuse)
+                images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct),
+                                                           images[P.DIFFUSE_COLOR][pixels])
             if lobe is not None and want & {P.GLOSSY_DIRECT, P.GLOSSY_COLOR}:
                 color = gbuf.splat(lobe.color)
                 for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy), color))):
