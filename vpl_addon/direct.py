@@ -45,7 +45,10 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     for lo in range(0, k, step):
         hi = min(k, lo + step)
         owner = np.repeat(np.arange(hi - lo), samples)  # the point of each light sample, within the batch
-        at = (lo, hi, owner, *(np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns)))
+        # shadow rays leave through the side the geometric normal faces (``_accumulate`` keeps only those): one
+        # offset origin per point
+        origin = tracer.offset_origin(p[lo:hi], ng[lo:hi])
+        at = (lo, hi, owner, origin, *(np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns)))
         given = numbers or (None,) * 4
         u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
@@ -61,16 +64,16 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
 
 def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy):
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
-    weight * (f cos of the glossy lobe) * V. ``at`` = (lo, hi, the point of each sample within lo:hi, and the
-    position, geometric and shading normal of each sample's point)."""
-    lo, hi, owner, p, ng, ns = at
+    weight * (f cos of the glossy lobe) * V. ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
+    rays' origin at each point, and the position, geometric and shading normal of each sample's point)."""
+    lo, hi, owner, origin, p, ng, ns = at
     cos = dot(ns, wi)
     total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
     sel = np.nonzero((cos > 0.0) & (dot(ng, wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    sel = sel[tracer.visible(p[sel], ng[sel], wi[sel], dist[sel], on_geometry)]
+    sel = sel[tracer.visible(p[sel], ng[sel], wi[sel], dist[sel], on_geometry, origin[owner[sel]])]
     out[lo:hi] += group_sum(owner[sel], weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
     if glossy is not None:
         point = owner[sel] + lo

@@ -330,11 +330,18 @@ class AreaLight(Light):
         """Uniform in the solid angle the rectangle subtends (Urena, Fajardo, King: "An Area-Preserving
         Parametrization for Spherical Rectangles", EGSR 2013): L_e / pdf = L x solid angle, no 1/d^2 spikes.
         The per-point part is computed once per point of ``p``, the rest per sample (``owner`` as in
-        ``Light.sample_incident``)."""
-        per_point = self._spherical_rectangle(p)
-        if owner is not None:
-            per_point = (value[owner] for value in per_point)
-        x0, y0, zs, b0, b1, k, solid = per_point
+        ``Light.sample_incident``); the light is one-sided, so samples at points behind it get nothing (zero
+        weight and direction) and cost nothing."""
+        owner = np.arange(len(p)) if owner is None else owner
+        wi, dist, weight = np.zeros((len(owner), 3)), np.zeros(len(owner)), np.zeros((len(owner), 3))
+        front = dot(p - self.center, self.normal) > 0.0
+        rows = np.nonzero(front[owner])[0]
+        if len(rows) == 0:
+            return wi, dist, weight
+        per_point = self._spherical_rectangle(p[front])
+        at = (np.cumsum(front) - 1)[owner[rows]]  # each sample's point among those in front
+        x0, y0, zs, b0, b1, k, solid = (value[at] for value in per_point)
+        u1, u2 = u1[rows], u2[rows]
         x, y, z, lx, ly = self._frame()
         x1, y1, z0 = x0 + lx, y0 + ly, -np.abs(zs)
         au = u1 * solid + k
@@ -349,11 +356,11 @@ class AreaLight(Light):
             yv = np.where(hv * hv < 1.0 - 1e-6, hv * dd / np.sqrt(np.maximum(1.0 - hv * hv, 1e-300)), y1)
         local = np.stack([np.nan_to_num(xu, copy=False), np.nan_to_num(yv, copy=False), zs], axis=1)
         to_l = local @ np.stack([x, y, z])
-        dist = np.linalg.norm(to_l, axis=1)
-        wi = to_l / np.maximum(dist, 1e-300)[:, None]
-        cos_l = np.maximum(dot(-wi, self.normal), 0.0)  # one-sided
-        factor = np.where(cos_l > 0.0, solid * self.spread_profile(cos_l), 0.0)
-        return wi, dist, factor[:, None] * self.radiance
+        dist[rows] = np.linalg.norm(to_l, axis=1)
+        wi[rows] = to_l / np.maximum(dist[rows], 1e-300)[:, None]
+        cos_l = np.maximum(dot(-wi[rows], self.normal), 0.0)
+        weight[rows] = np.where(cos_l > 0.0, solid * self.spread_profile(cos_l), 0.0)[:, None] * self.radiance
+        return wi, dist, weight
 
     def emit(self, count, rng, center, radius):
         origins = self.sample_points(rng.random(count), rng.random(count))

@@ -124,15 +124,17 @@ class Tracer:
         return p + np.where(np.abs(by_ulps) > np.abs(absolute), by_ulps, absolute)
 
     def visible(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
-                target_normal: np.ndarray | None = None) -> np.ndarray:
+                target_normal: np.ndarray | None = None, origin: np.ndarray | None = None) -> np.ndarray:
         """Visibility from surface points p (geometric normal n) along unit dirs to a point at distance dist.
 
         The origin is offset to the side of n that dirs leaves through; when the target lies on a surface too,
         its normal shortens the segment by the same robust margin so the target does not occlude itself (a zero
-        target normal means the target is not on geometry).
+        target normal means the target is not on geometry). ``origin``: the offset origins when the caller has
+        them already (many rays leaving one point through the same side, ``offset_origin(p, n)``).
         """
-        side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
-        origin = self.offset_origin(p, side)
+        if origin is None:
+            side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
+            origin = self.offset_origin(p, side)
         finite = np.isfinite(dist)
         if not finite.any():  # distant lights only: rays to infinity
             return ~self.occluded(origin, dirs, FAR)
