@@ -182,6 +182,10 @@ class GlossyLobe:
     def take(self, rows) -> "GlossyLobe":
         return GlossyLobe(*(getattr(self, f.name)[rows] for f in fields(GlossyLobe)))
 
+    @staticmethod
+    def concat(parts: list["GlossyLobe"]) -> "GlossyLobe":
+        return GlossyLobe(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(GlossyLobe)))
+
     def evaluate(self, l: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(f cos (R,3) with the weight, pdf (R,) of ``sample``) toward directions ``l`` (R,3) at points ``rows``."""
         value, pdf = evaluate(self.normal[rows], self.view[rows], l, self.alpha[rows], self.f0[rows],
