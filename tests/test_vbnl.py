@@ -122,6 +122,25 @@ def test_catchments_add_up_to_the_area_the_lights_cover():
     assert area[inner].mean() == pytest.approx(0.05 ** 2, rel=0.02)
 
 
+def test_catchment_of_lights_on_a_thin_strip_is_measured_again():
+    """Lights on a 2 cm strip (a window frame's edge), each disc 40 cm across: a few of a light's 32 points land on
+    the strip, and an area from them is up to 51 % off (so is the light's radiance I_j / A_j); the lights that few
+    points found are measured again with 16 times as many, and every area is then within 15 % of the strip's part
+    of the disc."""
+    from vpl_addon.scene import Materials, Scene
+    w, r, n = 0.02, 0.2, 200
+    strip = np.array([[[-w / 2, -100, 0], [w / 2, -100, 0], [w / 2, 100, 0]],
+                      [[-w / 2, -100, 0], [w / 2, 100, 0], [-w / 2, 100, 0]]], float)
+    scene = Scene.build(strip, Materials.make([]), [], plane_scene().camera)
+    x = (np.random.default_rng(5).random(n) - 0.5) * w
+    lights = PhotonLights(np.c_[x, np.arange(n) * 0.5 - 50, np.zeros(n)], np.tile([0, 0, 1.0], (n, 1)),
+                          np.full(n, r), np.zeros((n, 3)))
+    tracer = Tracer(scene.triangles)
+    area = catchment(lights, scene, tracer, 32, np.random.default_rng(0))
+    tracer.close()
+    assert np.abs(area / (w * 2 * np.sqrt(r * r - x * x)) - 1).max() < 0.15
+
+
 def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
     """A point light between a grey floor and a ceiling the camera looks up at: the candidates land on the floor
     (the camera's BSDF rays bounce down from the ceiling), and with one bounce their radiance L_j = I_j / A_j is
