@@ -13,7 +13,8 @@ by ``tests/test_cycles_direct.py``:
 ``sample_incident(p, n, u1, u2, owner)`` returns, for light samples at shading points p with normals n (sample i at
 point ``owner[i]``), unit directions toward the light, the distance to the sampled light point (inf for distant
 lights), and L_e / pdf in solid angle: the estimator of the direct diffuse term is then
-``le_over_pdf * max(0, n.wi) / pi * V``.
+``le_over_pdf * max(0, n.wi) / pi * V``. A sample that cannot receive light (behind a one-sided area light) may
+come back as a zero direction with zero weight.
 
 ``emit(count, rng, center, radius)`` starts light paths (Keller's Instant Radiosity): origins, unit directions and
 the power each carries (emitted radiance over the joint pdf of position and direction, so the mean over paths is the

@@ -208,7 +208,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
                 indirect[pixels] = _divide(group_sum(at, sub.albedo * light, len(pixels)),
                                            group_sum(at, sub.albedo, len(pixels)))
-                diffuse_seen[pixels] = np.bincount(gbuf.sample[rows] // gbuf.spp, minlength=len(pixels)) > 0
+                diffuse_seen[pixels] = np.bincount(at, minlength=len(pixels)) > 0
                 guides = np.nonzero(gathering)[0]  # the filter's guides: what the gathering samples see
                 local = gbuf.sample[guides] // gbuf.spp
                 guide_position[pixels] = group_sum(local, surf.position[guides], len(pixels))
