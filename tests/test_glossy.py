@@ -105,6 +105,38 @@ def test_glossy_direct_of_a_metal_floor_under_a_sun():
     assert result.passes["Diffuse Direct"].max() == 0.0
 
 
+@pytest.mark.parametrize("roughness", [0.3, 0.05])
+@pytest.mark.parametrize("round_", [False, True])
+def test_glossy_direct_of_an_area_light_over_a_metal_floor(roughness, round_):
+    """An area light mirrored by a metal floor seen straight down: Glossy Direct x Glossy Color against the lobe
+    integrated over the light on an 800 x 800 grid. At roughness 0.05 the lobe's peak lies inside the light's solid
+    angle; light samples alone gave pixels 14 times the mean (a coefficient of variation of 2 over the pixels) and a
+    mean 11-19 % off; with the lobe's own samples and MIS the pixels agree within a few per cent."""
+    from vpl_addon.lights import AreaLight
+    height, size, power, f0 = 1.0, 0.3, 10.0, (0.9, 0.7, 0.5)
+    light = AreaLight("a", [0.1, 0.05, height], [size, 0, 0], [0, size, 0], [0, 0, -1], [power] * 3, round=round_)
+    floor = plane_scene([light], view=0.02, res=16)
+    materials = Materials.make([{"name": "metal", "base_color": f0, "metallic": 1.0, "roughness": roughness}])
+    scene = Scene.build(floor.triangles, materials, floor.lights, floor.camera, material=[1, 1])
+    out = render(scene, RenderSettings(samples=16, light_samples=4, method="none",
+                                       passes=("Glossy Direct", "Glossy Color"))).passes
+    light_out = (out["Glossy Direct"] * out["Glossy Color"])[..., 0]
+
+    g = (np.arange(800) + 0.5) / 800 - 0.5
+    a, b = (x.ravel() for x in np.meshgrid(g, g))
+    on = 4.0 * (a * a + b * b) <= 1.0 if round_ else np.ones(a.size, bool)
+    q = np.c_[0.1 + a * size, 0.05 + b * size, np.full(a.size, height)][on]
+    d2 = (q * q).sum(axis=1)
+    up = np.tile([0.0, 0.0, 1.0], (len(q), 1))
+    value, _ = M.evaluate(up, up, q / np.sqrt(d2)[:, None], np.full(len(q), float(M.alpha(np.array([roughness]))[0])),
+                          np.tile(f0, (len(q), 1)), np.zeros((len(q), 3)))
+    scale = M.compensation(np.array([roughness]), np.array([f0]), np.zeros((1, 3)), np.array([1.0])).scale[0, 0]
+    solid = height / np.sqrt(d2) / d2 * (size / 800) ** 2  # cos at the light / d^2 x the cell's area
+    expected = (value[:, 0] * solid).sum() * power / (np.pi * light.area) * scale
+    assert light_out.mean() == pytest.approx(expected, rel=0.015)
+    assert light_out.std() / light_out.mean() < 0.1
+
+
 def test_diffuse_scenes_compute_nothing_glossy():
     """Without a metallic material the glossy passes are black and the glossy lobe is never built."""
     sun = SunLight("sun", [0, 0, -1], [3.0] * 3)

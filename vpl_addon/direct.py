@@ -8,13 +8,19 @@ BSDF, divided by the diffuse colour).
 When the points are the samples of pixels (the G-buffer), the caller can hand in the light-sample numbers: those of
 all samples of a pixel then form one scrambled Sobol net (``sampling.stratified_2d``) dealt out in random order,
 so a pixel's shadow rays cover the light evenly instead of clumping as independent numbers do.
+
+The metallic lobe's light combines the light samples with as many samples of the lobe itself by multiple
+importance sampling (Veach and Guibas 1995, the power heuristic), per light: a sharp lobe inside a light's solid
+angle is found by its own samples, where light samples alone gave f cos / pdf of 10^4 and more (single samples
+that the filter spread into squares). Lights that cannot evaluate their pdf for a given direction (``Light.mis``
+None: points, spots, suns, emissive meshes) keep light samples alone.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from .microfacet import GlossyLobe
-from .sampling import dot, group_sum
+from .sampling import dot, group_sum, stratified_2d
 
 RAYS_PER_BATCH = 1 << 20
 
@@ -54,17 +60,28 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         if lights.local:
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
-            wi, dist, weight, target_n = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
-            _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy)
+            wi, dist, weight, target_n, which = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
+            _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
+                        lambda rows: lights.local_pdf(at[4][rows], at[6][rows], wi[rows], which[rows]))
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
-            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy)
+            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
+                        lambda rows: lights.world.mis(at[4][rows], at[6][rows], wi[rows])[2])
+        if glossy is not None:
+            _lobe_samples(shine, at, lights, tracer, glossy, rng)
     return out / samples, shine / samples
 
 
-def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy):
+def _power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """The weight a^2 / (a^2 + b^2) of the strategy of pdf a against b; 1 where a is NaN (no other strategy)."""
+    a2, b2 = a * a, b * b
+    return np.where(np.isnan(a), 1.0, a2 / np.where(a2 + b2 > 0.0, a2 + b2, 1.0))
+
+
+def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf):
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
-    weight * (f cos of the glossy lobe) * V. ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
+    weight * (f cos of the glossy lobe) * V * the MIS weight against the lobe's pdf (``light_pdf(rows)``: the
+    light samples' own pdf, NaN for no MIS). ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
     rays' origin at each point, and the position, geometric and shading normal of each sample's point)."""
     lo, hi, owner, origin, p, ng, ns = at
     cos = dot(ns, wi)
@@ -78,5 +95,35 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy):
     if glossy is not None:
         point = owner[sel] + lo
         lit = np.nonzero(glossy.weight[point].max(axis=1) > 0.0)[0]
-        value, _ = glossy.evaluate(wi[sel[lit]], point[lit])
+        value, p_lobe = glossy.evaluate(wi[sel[lit]], point[lit])
+        value *= _power_heuristic(light_pdf(sel[lit]), p_lobe)[:, None]
         shine[lo:hi] += group_sum(owner[sel[lit]], weight[sel[lit]] * value, hi - lo)
+
+
+def _lobe_samples(shine, at, lights, tracer, glossy, rng):
+    """shine[lo:hi] += MIS's other half: one direction from the metallic lobe per light sample, and the light of
+    every light the ray finds (``Light.mis``) that is not hidden, times f cos / pdf and the MIS weight against that
+    light's own pdf. The directions are kept to those the light samples can take (above the shading and the
+    geometric surface)."""
+    lo, hi, owner, origin, p, ng, ns = at
+    rows = np.nonzero(glossy.weight[owner + lo].max(axis=1) > 0.0)[0]
+    u1, u2 = (u.ravel()[rows] for u in stratified_2d(hi - lo, len(owner) // (hi - lo), rng))  # a net per point
+    w, f_cos_pdf, p_lobe = glossy.sample(u1, u2, owner[rows] + lo)
+    keep = np.nonzero((p_lobe > 0.0) & (dot(ns[rows], w) > 0.0) & (dot(ng[rows], w) > 0.0))[0]
+    rows, w, f_cos_pdf, p_lobe = rows[keep], w[keep], f_cos_pdf[keep], p_lobe[keep]
+    if len(rows) == 0:
+        return
+    chosen = lights.selection(p[rows]) if len(lights.local) > 1 else np.ones((len(rows), 1))
+    found = [(chosen[:, i], light) for i, light in enumerate(lights.local)]
+    if lights.world is not None:
+        found.append((1.0, lights.world))
+    for probability, light in found:
+        answer = light.mis(p[rows], ns[rows], w)
+        if answer is None:
+            continue
+        dist, radiance, pdf = answer
+        pdf = probability * pdf
+        hit = np.nonzero((pdf > 0.0) & (radiance.max(axis=1) > 0.0))[0]
+        hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]
+        light_in = f_cos_pdf[hit] * radiance[hit] * _power_heuristic(p_lobe[hit], pdf[hit])[:, None]
+        shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)

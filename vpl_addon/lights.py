@@ -113,6 +113,13 @@ class Light:
     def _sample_incident(self, p, n, u1, u2):
         raise NotImplementedError
 
+    def mis(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
+        """What a ray from points p (shading normals n) along unit directions w finds of the light, for multiple
+        importance sampling of a glossy lobe against ``sample_incident``: (distance (P,), emitted radiance (P,3),
+        the solid-angle pdf of ``sample_incident`` choosing w (P,)), radiance and pdf 0 where the ray misses it.
+        None for a light that cannot say: its samples keep their full weight and lobe samples ignore it."""
+        return None
+
     def emit(self, count, rng, center, radius):
         raise NotImplementedError
 
@@ -363,6 +370,24 @@ class AreaLight(Light):
         weight[rows] = np.where(cos_l > 0.0, solid * self.spread_profile(cos_l), 0.0)[:, None] * self.radiance
         return wi, dist, weight
 
+    def mis(self, p, n, w):
+        """The ray meets the light's plane in front of its emitting side and inside it; the pdf is the spherical
+        rectangle's 1 / solid angle, or for a disk the area sampling's d^2 / (cos A)."""
+        facing = -dot(w, self.normal)  # cos at the light: it emits along its normal
+        t = dot(p - self.center, self.normal) / np.where(facing > 0.0, facing, 1.0)
+        q = p + t[:, None] * w - self.center
+        a = dot(q, self.axis_u) / dot(self.axis_u, self.axis_u)  # in [-1/2, 1/2] across the light
+        b = dot(q, self.axis_v) / dot(self.axis_v, self.axis_v)
+        inside = 4.0 * (a * a + b * b) <= 1.0 if self.round else (np.abs(a) <= 0.5) & (np.abs(b) <= 0.5)
+        hit = (facing > 0.0) & (t > 0.0) & inside & np.isfinite(t)
+        radiance = np.where(hit[:, None], self.spread_profile(facing)[:, None] * self.radiance, 0.0)
+        if self.round:
+            pdf = t * t / np.maximum(facing * self.area, 1e-300)
+        else:
+            solid = self._spherical_rectangle(p)[-1]
+            pdf = np.where(solid > 0.0, 1.0 / np.maximum(solid, 1e-300), 0.0)
+        return np.where(hit, t, 0.0), radiance, np.where(hit, pdf, 0.0)
+
     def emit(self, count, rng, center, radius):
         origins = self.sample_points(rng.random(count), rng.random(count))
         dirs, cos = cosine_hemisphere(rng.random(count), rng.random(count), np.broadcast_to(self.normal, (count, 3)))
@@ -449,6 +474,12 @@ class WorldLight(Light):
         factor = np.pi / np.maximum(cos, 1e-12)
         return wi, np.full(len(p), np.inf), factor[:, None] * self.radiance
 
+    def mis(self, p, n, w):
+        """Every ray that leaves finds the world: pdf cos / pi about the shading normal."""
+        cos = dot(n, w)
+        return (np.full(len(p), np.inf), np.broadcast_to(self.radiance, (len(p), 3)),
+                np.maximum(cos, 0.0) / np.pi)
+
     def emit(self, count, rng, center, radius):
         dirs = uniform_sphere(rng.random(count), rng.random(count))
         origins = _disc_facing(rng, dirs, center, radius)
@@ -506,12 +537,12 @@ class LightSet:
 
     def sample_incident(self, p, n, u_select, u1, u2, owner=None):
         """One sample of a local light per sample: (wi, dist, L_e / pdf including 1/p_select, normal at the light
-        point or None). ``owner`` as in ``Light.sample_incident`` (the points p, n, the samples u). The normal is
+        point or None, the index of each sample's light among the local ones). ``owner`` as in ``Light.sample_incident`` (the points p, n, the samples u). The normal is
         zero where the light point is not on scene geometry (analytic lights), None if no light is on geometry."""
         owner = np.arange(len(p)) if owner is None else owner
         if len(self.local) == 1:
             out = self.local[0].sample_incident(p, n, u1, u2, owner)
-            return out[0], out[1], out[2], out[3] if len(out) == 4 else None
+            return out[0], out[1], out[2], out[3] if len(out) == 4 else None, np.zeros(len(owner), np.int64)
         count = len(owner)
         wi, dist, weight, target_n = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3)), None
         prob = self.selection(p)
@@ -526,7 +557,20 @@ class LightSet:
             if len(out) == 4:
                 target_n = np.zeros((count, 3)) if target_n is None else target_n
                 target_n[m] = out[3]
-        return wi, dist, weight, target_n
+        return wi, dist, weight, target_n, choice
+
+    def local_pdf(self, p, n, w, which):
+        """(K,) the solid-angle pdf with which ``sample_incident`` draws direction w from point p (normal n), with
+        the light ``which`` (index among the local lights) chosen: its selection probability times its own pdf;
+        NaN where that light cannot say (``Light.mis`` None)."""
+        out = np.full(len(p), np.nan)
+        prob = self.selection(p) if len(self.local) > 1 else np.ones((len(p), 1))
+        for index, light in enumerate(self.local):
+            m = np.nonzero(which == index)[0]
+            found = light.mis(p[m], n[m], w[m]) if len(m) else None
+            if found is not None:
+                out[m] = prob[m, index] * found[2]
+        return out
 
     def selection(self, p: np.ndarray) -> np.ndarray:
         """(N, L) probabilities of choosing each local light at points p: in proportion to its importance there
