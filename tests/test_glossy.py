@@ -137,6 +137,23 @@ def test_glossy_direct_of_an_area_light_over_a_metal_floor(roughness, round_):
     assert light_out.std() / light_out.mean() < 0.1
 
 
+@pytest.mark.parametrize("roughness", [0.3, 0.05])
+def test_glossy_direct_of_the_world_over_a_metal_floor(roughness):
+    """A constant world over a metal floor: the light the lobe reflects is the world's radiance times the lobe's
+    albedo, so Glossy Direct (light over Glossy Color) is about the radiance. With cosine samples of the world alone
+    a roughness-0.05 lobe gave a mean of 1.87 for 0.7 and a pixel CV of 9; MIS with the lobe's samples, 0.700 and
+    0.01."""
+    world = (0.7, 0.7, 0.7)
+    floor = plane_scene([], world=world, view=0.02, res=16)
+    materials = Materials.make([{"name": "metal", "base_color": (0.9, 0.7, 0.5), "metallic": 1.0,
+                                 "roughness": roughness}])
+    scene = Scene.build(floor.triangles, materials, [], floor.camera, material=[1, 1], world=world)
+    direct = render(scene, RenderSettings(samples=16, light_samples=4, method="none",
+                                          passes=("Glossy Direct", "Glossy Color"))).passes["Glossy Direct"][..., 0]
+    assert direct.mean() == pytest.approx(0.7, rel=0.02)
+    assert direct.std() / direct.mean() < 0.1
+
+
 def test_diffuse_scenes_compute_nothing_glossy():
     """Without a metallic material the glossy passes are black and the glossy lobe is never built."""
     sun = SunLight("sun", [0, 0, -1], [3.0] * 3)
