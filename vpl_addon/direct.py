@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 
 from .microfacet import GlossyLobe
-from .sampling import dot, group_sum, stratified_2d
+from .sampling import dot, group_sum, power_heuristic, stratified_2d
 
 RAYS_PER_BATCH = 1 << 20
 
@@ -72,12 +72,6 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     return out / samples, shine / samples
 
 
-def _power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """The weight a^2 / (a^2 + b^2) of the strategy of pdf a against b; 1 where a is NaN (no other strategy)."""
-    a2, b2 = a * a, b * b
-    return np.where(np.isnan(a), 1.0, a2 / np.where(a2 + b2 > 0.0, a2 + b2, 1.0))
-
-
 def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf):
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
     weight * (f cos of the glossy lobe) * V * the MIS weight against the lobe's pdf (``light_pdf(rows)``: the
@@ -96,7 +90,7 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
         point = owner[sel] + lo
         lit = np.nonzero(glossy.weight[point].max(axis=1) > 0.0)[0]
         value, p_lobe = glossy.evaluate(wi[sel[lit]], point[lit])
-        value *= _power_heuristic(light_pdf(sel[lit]), p_lobe)[:, None]
+        value *= power_heuristic(light_pdf(sel[lit]), p_lobe)[:, None]
         shine[lo:hi] += group_sum(owner[sel[lit]], weight[sel[lit]] * value, hi - lo)
 
 
@@ -125,5 +119,5 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
         pdf = probability * pdf
         hit = np.nonzero((pdf > 0.0) & (radiance.max(axis=1) > 0.0))[0]
         hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]
-        light_in = f_cos_pdf[hit] * radiance[hit] * _power_heuristic(p_lobe[hit], pdf[hit])[:, None]
+        light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]
         shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)

@@ -24,6 +24,13 @@ def group_sum(index: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
                     axis=1)
 
 
+def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Veach's power heuristic: the MIS weight a^2 / (a^2 + b^2) of a sample drawn with pdf a against a strategy
+    of pdf b; 0 where both are 0, 1 where a is NaN (a light that cannot say its pdf: nothing to weigh against)."""
+    a2, b2 = a * a, b * b
+    return np.where(np.isnan(a), 1.0, a2 / np.where(a2 + b2 > 0.0, a2 + b2, 1.0))
+
+
 def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Tangent vectors (t, b) completing unit normals n to a right-handed frame (Duff et al. 2017)."""
     sign = np.where(n[..., 2] >= 0.0, 1.0, -1.0)

@@ -35,7 +35,7 @@ import numpy as np
 
 from .direct import direct_light
 from .microfacet import GlossyLobe
-from .sampling import cosine_hemisphere, dot, group_sum, sample_cdf, uniform_cone
+from .sampling import cosine_hemisphere, dot, group_sum, power_heuristic, sample_cdf, uniform_cone
 from .surface import Surface, bounce
 
 
@@ -57,11 +57,6 @@ def _one_minus_cos_cone(radius, dist):
     sphere of directions) from inside."""
     s2 = np.minimum((radius / np.maximum(dist, 1e-300)) ** 2, 1.0)
     return np.where(dist <= radius, 2.0, s2 / (1.0 + np.sqrt(1.0 - s2)))
-
-
-def _power_heuristic(a, b):
-    a2, b2 = a * a, b * b
-    return np.where(a2 > 0.0, a2 / np.maximum(a2 + b2, 1e-300), 0.0)
 
 
 def _blend_weight(footprint, density, settings, extend):
@@ -171,7 +166,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
         mine = lights.share_of(y.position, y.shading_normal, jj) * _diffuse_part(y)  # s_j(y)
         to_y = y.position - p[at]
         footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
-        weight = mine * _power_heuristic(p_light[at], p_bsdf) * _blend_weight(footprint, density[jj], settings,
+        weight = mine * power_heuristic(p_light[at], p_bsdf) * _blend_weight(footprint, density[jj], settings,
                                                                                extend) / p_light[at]
         out += group_sum(owner[at], throughput[at] * f_cos * radiance[jj] * weight[:, None], len(out))
 
@@ -188,7 +183,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
     p_light = choice[light] / (2.0 * np.pi * cone)
     w_v = _blend_weight(footprint[pair], density[light], settings, extend)
     light_radiance = radiance[light] * mine[:, None]
-    estimate = group_sum(pair, light_radiance * (_power_heuristic(p_bsdf[at][pair], p_light) * w_v)[:, None],
+    estimate = group_sum(pair, light_radiance * (power_heuristic(p_bsdf[at][pair], p_light) * w_v)[:, None],
                          len(at))
     carried = throughput[at] * sampled[at]
     out += group_sum(owner[at], carried * estimate, len(out))
