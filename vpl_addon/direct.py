@@ -54,7 +54,8 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         # shadow rays leave through the side the geometric normal faces (``_accumulate`` keeps only those): one
         # offset origin per point
         origin = tracer.offset_origin(p[lo:hi], ng[lo:hi])
-        at = (lo, hi, owner, origin, *(np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns)))
+        p_at, ng_at, ns_at = (np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns))  # each sample's point
+        at = (lo, hi, owner, origin, p_at, ng_at, ns_at)
         given = numbers or (None,) * 4
         u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
@@ -62,11 +63,11 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
             wi, dist, weight, target_n, which = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
             _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
-                        lambda rows: lights.local_pdf(at[4][rows], at[6][rows], wi[rows], which[rows]))
+                        lambda rows: lights.local_pdf(p_at[rows], ns_at[rows], wi[rows], which[rows]))
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
             _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
-                        lambda rows: lights.world.mis(at[4][rows], at[6][rows], wi[rows])[2])
+                        lambda rows: lights.world.mis(p_at[rows], ns_at[rows], wi[rows])[2])
         if glossy is not None:
             _lobe_samples(shine, at, lights, tracer, glossy, rng)
     return out / samples, shine / samples

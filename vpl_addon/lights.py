@@ -381,12 +381,13 @@ class AreaLight(Light):
         inside = 4.0 * (a * a + b * b) <= 1.0 if self.round else (np.abs(a) <= 0.5) & (np.abs(b) <= 0.5)
         hit = (facing > 0.0) & (t > 0.0) & inside & np.isfinite(t)
         radiance = np.where(hit[:, None], self.spread_profile(facing)[:, None] * self.radiance, 0.0)
+        pdf = np.zeros(len(p))
         if self.round:
-            pdf = t * t / np.maximum(facing * self.area, 1e-300)
-        else:
-            solid = self._spherical_rectangle(p)[-1]
-            pdf = np.where(solid > 0.0, 1.0 / np.maximum(solid, 1e-300), 0.0)
-        return np.where(hit, t, 0.0), radiance, np.where(hit, pdf, 0.0)
+            pdf[hit] = t[hit] ** 2 / np.maximum(facing[hit] * self.area, 1e-300)
+        else:  # the spherical rectangle's set-up only where the ray finds the light
+            solid = self._spherical_rectangle(p[hit])[-1]
+            pdf[hit] = np.where(solid > 0.0, 1.0 / np.maximum(solid, 1e-300), 0.0)
+        return np.where(hit, t, 0.0), radiance, pdf
 
     def emit(self, count, rng, center, radius):
         origins = self.sample_points(rng.random(count), rng.random(count))
@@ -537,8 +538,9 @@ class LightSet:
 
     def sample_incident(self, p, n, u_select, u1, u2, owner=None):
         """One sample of a local light per sample: (wi, dist, L_e / pdf including 1/p_select, normal at the light
-        point or None, the index of each sample's light among the local ones). ``owner`` as in ``Light.sample_incident`` (the points p, n, the samples u). The normal is
-        zero where the light point is not on scene geometry (analytic lights), None if no light is on geometry."""
+        point or None, the index of each sample's light among the local ones). ``owner`` as in
+        ``Light.sample_incident`` (the points p, n, the samples u). The normal is zero where the light point is not
+        on scene geometry (analytic lights), None if no light is on geometry."""
         owner = np.arange(len(p)) if owner is None else owner
         if len(self.local) == 1:
             out = self.local[0].sample_incident(p, n, u1, u2, owner)

@@ -167,7 +167,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
         to_y = y.position - p[at]
         footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
         weight = mine * power_heuristic(p_light[at], p_bsdf) * _blend_weight(footprint, density[jj], settings,
-                                                                               extend) / p_light[at]
+                                                                              extend) / p_light[at]
         out += group_sum(owner[at], throughput[at] * f_cos * radiance[jj] * weight[:, None], len(out))
 
     # BSDF sample: every light whose sphere holds the hit point
