@@ -35,13 +35,9 @@ import numpy as np
 
 from .direct import direct_light
 from .microfacet import GlossyLobe
-from .sampling import cosine_hemisphere, dot, group_sum, power_heuristic, sample_cdf, uniform_cone
-from .surface import Surface, bounce
-
-
-# next-event samples at a metallic vertex the camera path extends to: light reaching a diffuse point over metal
-# (a caustic) comes only from them, and a sharp lobe catches a light rarely
-GLOSSY_LIGHT_SAMPLES = 8
+from .path_vertices import GLOSSY_LIGHT_SAMPLES, PathVertices, merged
+from .sampling import dot, group_sum, power_heuristic, sample_cdf, uniform_cone
+from .surface import bounce
 
 
 @dataclass
@@ -67,32 +63,6 @@ def _blend_weight(footprint, density, settings, extend):
     return np.clip((footprint * density - settings.n_min) / span, 0.0, 1.0)
 
 
-@dataclass
-class _Vertices:
-    """Path vertices that estimate their reflected light at one depth: the white Lambertian lobe (``lobe`` None;
-    the albedo is in the throughput) or a metallic lobe (``microfacet.GlossyLobe``, weight and colour inside)."""
-
-    point: object  # Surface
-    owner: np.ndarray  # (K,) the shading point each vertex adds to
-    throughput: np.ndarray  # (K,3)
-    lobe: GlossyLobe | None = None
-
-    def evaluate(self, w, rows):
-        """(f cos (R,3), pdf (R,)) toward ``w`` at vertices ``rows``."""
-        if self.lobe is None:
-            cos = np.maximum(dot(self.point.shading_normal[rows], w), 0.0) / np.pi
-            return np.repeat(cos[:, None], 3, axis=1), cos
-        return self.lobe.evaluate(w, rows)
-
-    def sample(self, rng):
-        """(directions (K,3), f cos / pdf (K,3), pdf (K,)) of the lobe's own sampling."""
-        k = len(self.owner)
-        if self.lobe is None:
-            w, cos = cosine_hemisphere(rng.random(k), rng.random(k), self.point.shading_normal)
-            return w, np.ones((k, 3)), cos / np.pi
-        return self.lobe.sample(rng.random(k), rng.random(k), np.arange(k))
-
-
 def _diffuse_part(surface) -> np.ndarray:
     """(K,) 1 where the surface has a diffuse colour: the photon lights hold only diffusely reflected light."""
     return (surface.albedo.max(axis=1) > 0.0).astype(np.float64)
@@ -106,7 +76,7 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
     if len(surface) == 0 or len(lights) == 0 or max_depth <= 0:
         return out
     density = lights.density
-    level = [_Vertices(surface, np.arange(len(surface)), np.ones((len(surface), 3)), glossy)]
+    level = [PathVertices(surface, np.arange(len(surface)), np.ones((len(surface), 3)), glossy)]
     for depth in range(max_depth):
         level = [v for v in level if len(v.owner)]
         if not level:
@@ -122,24 +92,8 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         for v in level:
             following += _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance, choice, cdf,
                                    density, total_power, extend)
-        level = _merged(following)
+        level = merged(following)
     return out
-
-
-def _merged(vertices: list[_Vertices]) -> list[_Vertices]:
-    """The vertices of one depth as at most two sets, the diffuse ones and the metallic ones: each set continues
-    into both kinds, and kept apart the sets would double with every depth (54 small calls instead of 16 at 8
-    bounces, each with the fixed cost of its k-d tree queries and ray batches)."""
-    merged = []
-    for glossy in (False, True):
-        part = [v for v in vertices if (v.lobe is not None) == glossy and len(v.owner)]
-        if len(part) == 1:
-            merged.append(part[0])
-        elif part:
-            merged.append(_Vertices(Surface.concat([v.point for v in part]), np.concatenate([v.owner for v in part]),
-                                    np.concatenate([v.throughput for v in part]),
-                                    GlossyLobe.concat([v.lobe for v in part]) if glossy else None))
-    return merged
 
 
 def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance, choice, cdf, density, total_power,
@@ -198,12 +152,12 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
                           np.maximum(covered, 1e-300), 0.0)
     carry = carried * (1.0 - mean_share)[:, None] * y.albedo
     go = np.nonzero(carry.max(axis=1) > 0.0)[0]
-    following = [_Vertices(y.take(go), owner[at][go], carry[go])]
+    following = [PathVertices(y.take(go), owner[at][go], carry[go])]
     out += group_sum(following[0].owner, following[0].throughput *
                      direct_light(following[0].point, light_set, tracer, 1, rng)[0], len(out))
     shiny = np.nonzero(y.metallic > 0.0)[0]
     if len(shiny):
-        nxt = _Vertices(y.take(shiny), owner[at][shiny], carried[shiny], GlossyLobe.of(y.take(shiny)))
+        nxt = PathVertices(y.take(shiny), owner[at][shiny], carried[shiny], GlossyLobe.of(y.take(shiny)))
         out += group_sum(nxt.owner, nxt.throughput *
                          direct_light(nxt.point, light_set, tracer, GLOSSY_LIGHT_SAMPLES, rng, glossy=nxt.lobe)[1], len(out))
         following.append(nxt)
