@@ -51,3 +51,12 @@ class GBuffer:
     def coverage(self) -> np.ndarray:
         """Fraction of each pixel's samples that hit geometry: the alpha of a transparent film."""
         return np.bincount(self.sample // self.spp, minlength=len(self.pixels)) / self.spp
+
+    def first(self, where: np.ndarray, count: int) -> np.ndarray:
+        """Rows of the first ``count`` hits of each pixel among those ``where`` holds: a pixel whose first samples
+        miss a lobe (a wall's edge on a metal floor) still has that lobe's light from its other samples."""
+        rows = np.nonzero(where)[0]
+        pixel = self.sample[rows] // self.spp  # non-decreasing: hits are in sample order
+        rank = np.arange(len(rows)) - np.searchsorted(pixel, pixel)
+        return rows[rank < count]
+

@@ -30,6 +30,7 @@ from .gather import GatherSettings, clamp_distance, gather
 from .gbuffer import GBuffer
 from .sampling import group_sum, stratified_2d
 from .lights import LightSet
+from .metal_paths import over_metal
 from .methods import METHODS, MethodContext, MethodSettings, place
 from .microfacet import GlossyLobe
 from .tracer import Tracer
@@ -119,9 +120,6 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
     vpls, d_min, permutation, context = None, 0.0, None, None
     sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
-    if need_glossy and need_indirect and sampled is None:
-        result.warnings.append(f"method {settings.method!r} has no glossy transport: metallic surfaces reflect "
-                               f"direct light only (Glossy Indirect is black); method 'vbnl' has it")
     try:
         if need_indirect:
             t0 = time.perf_counter()
@@ -134,11 +132,13 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
                 permutation = context.rng.permutation(len(vpls))
             result.seconds["place"] = time.perf_counter() - t0
-            need_indirect = len(vpls) > 0
+            # light over metal needs no VPL (the lights' own light the metal reflects)
+            need_indirect = len(vpls) > 0 or (sampled is None and scene.materials.glossy)
 
         images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want | {P.DIFFUSE_COLOR}}
         indirect = np.zeros((w * h, 3))
-        shine, shine_color = np.zeros((w * h, 3)), np.zeros((w * h, 3))  # glossy indirect light and its colour
+        # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
+        shine, shine_color, glossy_color = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros((w * h, 3))
         guide_position, guide_normal, guide_count = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros(w * h)
         diffuse_seen = np.zeros(w * h, bool)
         starts = list(range(0, w * h, settings.block_pixels))
@@ -150,6 +150,17 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             pairs = METHODS[settings.method].gather_samples(settings.placement)
             gather_spp = min(pairs, settings.samples)
             repeats = -(-pairs // gather_spp)
+
+        def summed(points, glossy, pixel, rng):
+            """The VPLs' light at camera points (white Lambertian, or the metallic lobe ``glossy``): the interleaved
+            gather, each point with its pixel's VPL subset, plus the light that comes over metal
+            (``metal_paths``); a metallic lobe sees VPLs only over its paths."""
+            xy = np.stack([pixel % w, pixel // w], 1)
+
+            def vpl_light(ends, owner):
+                return gather(ends, xy[owner], vpls, tracer, settings.gather, d_min, permutation)
+            light = over_metal(points, glossy, scene, tracer, lights, rng, vpl_light, bounces)
+            return light if glossy is not None else light + vpl_light(points, np.arange(len(points)))
 
         def shade_block(number: int):
             """Everything for one block of pixels; blocks run concurrently (numpy and embree release the GIL)."""
@@ -184,23 +195,23 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 direct, glossy = np.zeros_like(surf.albedo), np.zeros_like(surf.albedo)
             marks["direct"] = time.perf_counter()
             if need_indirect:
-                gathering = gbuf.sample % gbuf.spp < gather_spp
-                rows = np.nonzero(gathering & diffuse[:, 0])[0]
+                rows = gbuf.first(diffuse[:, 0], gather_spp)  # the gathering samples of each lobe
                 sub = surf.take(rows)
                 if sampled is None:
-                    pix = gbuf.pixel_of_hit[rows]
-                    light = gather(sub, np.stack([pix % w, pix // w], 1), vpls, tracer, settings.gather, d_min,
-                                   permutation)
+                    light = summed(sub, None, gbuf.pixel_of_hit[rows], rng)
                 else:
                     light = sampled(surf.take(np.repeat(rows, repeats)), vpls, context, settings.placement, rng)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
-                if lobe is not None and sampled is not None:
-                    shiny = np.nonzero(gathering & (surf.metallic > 0.0))[0]
-                    many = np.repeat(shiny, repeats)
-                    reflected = sampled(surf.take(many), vpls, context, settings.placement, rng,
-                                        glossy=lobe.take(many))
-                    reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)
+                if lobe is not None:
+                    shiny = gbuf.first(surf.metallic > 0.0, gather_spp)
+                    if sampled is None:
+                        reflected = summed(surf.take(shiny), lobe.take(shiny), gbuf.pixel_of_hit[shiny], rng)
+                    else:
+                        many = np.repeat(shiny, repeats)
+                        reflected = sampled(surf.take(many), vpls, context, settings.placement, rng,
+                                            glossy=lobe.take(many))
+                        reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)
                     guard("gather", {P.GLOSSY_INDIRECT: reflected})
                     at = gbuf.sample[shiny] // gbuf.spp
                     shine[pixels] = group_sum(at, reflected, len(pixels))
@@ -209,7 +220,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 indirect[pixels] = _divide(group_sum(at, sub.albedo * light, len(pixels)),
                                            group_sum(at, sub.albedo, len(pixels)))
                 diffuse_seen[pixels] = np.bincount(at, minlength=len(pixels)) > 0
-                guides = np.nonzero(gathering)[0]  # the filter's guides: what the gathering samples see
+                guides = rows if lobe is None else np.union1d(rows, shiny)  # the filter's guides
                 local = gbuf.sample[guides] // gbuf.spp
                 guide_position[pixels] = group_sum(local, surf.position[guides], len(pixels))
                 guide_normal[pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
@@ -221,8 +232,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             if P.DIFFUSE_DIRECT in want:
                 images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct),
                                                            images[P.DIFFUSE_COLOR][pixels])
-            if lobe is not None and want & {P.GLOSSY_DIRECT, P.GLOSSY_COLOR}:
-                color = gbuf.splat(lobe.color)
+            if lobe is not None:
+                color = glossy_color[pixels] = gbuf.splat(lobe.color)
                 for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy), color))):
                     if name in want:
                         images[name][pixels] = image
@@ -262,7 +273,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             if need_glossy:
                 reflected = smooth(reflected, shine_color.max(axis=1) > 0.0)
                 guard("filter", {P.GLOSSY_INDIRECT: reflected})
-        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + reflected * shine_color / gather_spp
+        images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + glossy_color * reflected
         if P.GLOSSY_INDIRECT in want:
             images[P.GLOSSY_INDIRECT] = reflected
         timing["filter"] = time.perf_counter() - t0
