@@ -6,9 +6,14 @@ reaching x_2 by such a path, estimated by eq. 7 from M camera points x_j:
 
     p(x_2) = (1/M) sum_j p(x_j -> x_2),   p(x_j -> x_2) = V cos(theta_j) / pi * cos(theta_2) / d^2.
 
-One of the M terms is the path's own x_1, which keeps the estimate away from zero (the others are independent).
+One of the M terms is the path's own x_1 (the others are independent): with it the estimate is the density of x_2
+given the M points, had x_2 come from any one of them at random, so 1 / p is an unbiased weight (the mixture
+density of multiple importance sampling with the balance heuristic) and never infinite. The own term needs no
+shadow ray: the ray that found x_2 joins the two (a shadow ray there can miss its end by the offsets and leave a
+weight of 1e300, which then took every draw of the resampling).
 The VPL's outgoing radiance is diffuse: albedo x (direct light + light of the standard VPLs), the latter by shadow
-rays to a random subset of the standard VPLs (the bidirectional estimate the paper describes)."""
+rays to a random subset of the standard VPLs (the bidirectional estimate the paper describes), both also as they
+arrive over metal (``metal_paths``: a camera path continued from x_2 through metallic surfaces)."""
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -18,13 +23,15 @@ import numpy as np
 from .camera_points import CameraPoints
 from .direct import diffuse_direct
 from .gather import sum_pairs
+from .metal_paths import over_metal
 from .sampling import dot
 from .surface import Surface, diffuse_bounce
 from .virtual_lights import REVERSE, VirtualLights
 
 
-def path_density(x1, x2, tracer) -> np.ndarray:
-    """p(x_1 -> x_2) per row: cosine sampling at x_1 turned into area density at x_2, times visibility.
+def path_density(x1, x2, tracer=None) -> np.ndarray:
+    """p(x_1 -> x_2) per row: cosine sampling at x_1 turned into area density at x_2, times visibility (traced
+    by ``tracer``; None for pairs joined by the ray that found x_2, visible by construction).
 
     x1 and x2 are (position, geometric normal, shading normal) triples of (K,3) arrays."""
     p1, ng1, ns1 = x1
@@ -38,7 +45,7 @@ def path_density(x1, x2, tracer) -> np.ndarray:
     ok = np.nonzero((cos1 > 0.0) & (dot(ng1, w) > 0.0) & (d > 0.0))[0]
     out = np.zeros(len(p1))
     if len(ok):
-        vis = tracer.visible(p1[ok], ng1[ok], w[ok], d[ok], ng2[ok])
+        vis = 1.0 if tracer is None else tracer.visible(p1[ok], ng1[ok], w[ok], d[ok], ng2[ok])
         out[ok] = vis * cos1[ok] / np.pi * cos2[ok] / np.maximum(d2[ok], 1e-300)
     return out
 
@@ -48,7 +55,7 @@ def density(positions, geometric_normals, own_x1, camera_points: CameraPoints, m
     k = len(positions)
     if k == 0:
         return np.zeros(0)
-    total = path_density(own_x1, (positions, geometric_normals, None), tracer)
+    total = path_density(own_x1, (positions, geometric_normals, None))
     if m > 1 and len(camera_points):
         j = camera_points.choose_stratified(k, m - 1, rng)
         s = camera_points.surface
@@ -93,14 +100,20 @@ def place(scene, tracer, lights, camera_points, target: int, standard: VirtualLi
         return empty
     s2 = Surface.concat([p[0] for p in parts])
     x1 = tuple(np.concatenate([p[1][i] for p in parts]) for i in range(3))
-    incident = diffuse_direct(s2, lights, tracer, direct_samples, rng)
     feeding = np.nonzero(standard.bounce <= max_bounces - 1)[0]  # keep the whole path within the bounce limit
-    k = len(s2)
-    if len(feeding) and standard_samples > 0:
+
+    def standard_light(points, owner=None):
+        """Light of the standard VPLs at ``points``: a uniform sample of the feeding ones, scaled to their sum."""
+        k = len(points)
+        if len(feeding) == 0 or standard_samples <= 0:
+            return np.zeros((k, 3))
         rep = np.repeat(np.arange(k), standard_samples)
         vi = feeding[rng.integers(0, len(feeding), k * standard_samples)]
-        # a uniform sample of the feeding VPLs, scaled up to their sum
-        incident += sum_pairs(s2, rep, standard, vi, tracer, d_min, rep, k) * (len(feeding) / standard_samples)
+        return sum_pairs(points, rep, standard, vi, tracer, d_min, rep, k) * (len(feeding) / standard_samples)
+    # x_2's own light also comes over metal (the lights' and the standard VPLs', ``metal_paths``)
+    incident = diffuse_direct(s2, lights, tracer, direct_samples, rng) + standard_light(s2) + \
+        over_metal(s2, None, scene, tracer, lights, rng, standard_light, max_bounces - 1)
+    k = len(s2)
     p = density(s2.position, s2.geometric_normal, x1, camera_points, density_paths, tracer, rng)
     weight = 1.0 / np.maximum(p * attempts, 1e-300)
     vpls = VirtualLights(s2.position, s2.shading_normal, s2.albedo * incident * weight[:, None],
