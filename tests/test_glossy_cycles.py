@@ -2,7 +2,8 @@
 rendered by vbnl and compared on the block's pixels with the committed 4096-spp Cycles reference: Glossy Color as
 Cycles estimates it, Glossy Direct, and Glossy Indirect within 10 % of Cycles' brightness and closer to it than
 bidir's diffuse-only treatment (the block rendered as a diffuse surface of its colour). The diffuse passes of the
-rest of the frame stay right too (light the metal throws onto the walls included)."""
+rest of the frame stay right too (light the metal throws onto the walls included); ir and bidir carry the light over
+metal too."""
 import copy
 
 import pytest
@@ -61,4 +62,24 @@ def test_vbnl_glossy_passes_match_cycles_on_the_metal_block(metal_box):
     assert abs(direct["mean_ratio"] - 1) <= 0.05
     assert abs(glossy["mean_ratio"] - 1) <= 0.10
     assert glossy["rmae"] < treated["rmae"]
+    assert abs(walls["mean_ratio"] - 1) <= 0.05
+
+
+@pytest.mark.parametrize("method", ["ir", "bidir"])
+def test_summed_vpl_methods_carry_light_over_the_metal_block(metal_box, method):
+    """ir and bidir continue camera paths through metal to their VPL gather (``metal_paths``): the block's Glossy
+    Indirect within 10 % of Cycles' brightness (it was black before) and the walls' Diffuse Indirect within 5 %."""
+    from vpl_gi.vpl_addon import passes as P
+    from vpl_gi.vpl_addon.methods import MethodSettings
+    from vpl_gi.vpl_addon.metrics import errors
+    from vpl_gi.vpl_addon.render import RenderSettings, render
+
+    scene, ref, full, metal = metal_box
+    ours = render(scene, RenderSettings(samples=16, light_samples=4, method=method, placement=MethodSettings(vpls=4096),
+                                        passes=(P.COMBINED, P.DIFFUSE_INDIRECT, P.GLOSSY_INDIRECT))).passes
+    glossy = errors(ours[P.GLOSSY_INDIRECT], ref[P.GLOSSY_INDIRECT], metal)
+    walls = errors(ours[P.DIFFUSE_INDIRECT], ref[P.DIFFUSE_INDIRECT], full & ~metal)
+    print(f"{method}: metal block Glossy Indirect ratio {glossy['mean_ratio']:.3f} rMAE {glossy['rmae']:.3f}; walls "
+          f"Diffuse Indirect ratio {walls['mean_ratio']:.3f} rMAE {walls['rmae']:.3f}")
+    assert abs(glossy["mean_ratio"] - 1) <= 0.10
     assert abs(walls["mean_ratio"] - 1) <= 0.05

@@ -7,6 +7,9 @@
    small uniform floor in the CDF (sec. 3.2, 4).
 4. Kept reverse VPLs get their density re-estimated with M = 50 camera points (sec. 4, "a very simple trick").
 
+Light over metal reaches the reverse VPLs and the camera points through camera paths continued to the gather
+(``metal_paths``), as for every summed-VPL method.
+
 The budget (``MethodSettings.vpls``) is N', the number of VPLs the gather sees.
 
 In a sequence the light paths of the standard VPLs are kept from frame to frame and verified against moving objects
