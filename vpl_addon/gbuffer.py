@@ -59,4 +59,3 @@ class GBuffer:
         pixel = self.sample[rows] // self.spp  # non-decreasing: hits are in sample order
         rank = np.arange(len(rows)) - np.searchsorted(pixel, pixel)
         return rows[rank < count]
-
