@@ -108,7 +108,7 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
     rows, w, f_cos_pdf, p_lobe = rows[keep], w[keep], f_cos_pdf[keep], p_lobe[keep]
     if len(rows) == 0:
         return
-    chosen = lights.selection(p[rows]) if len(lights.local) > 1 else np.ones((len(rows), 1))
+    chosen = lights.selection(p[rows])
     found = [(chosen[:, i], light) for i, light in enumerate(lights.local)]
     if lights.world is not None:
         found.append((1.0, lights.world))

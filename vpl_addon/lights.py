@@ -566,7 +566,7 @@ class LightSet:
         the light ``which`` (index among the local lights) chosen: its selection probability times its own pdf;
         NaN where that light cannot say (``Light.mis`` None)."""
         out = np.full(len(p), np.nan)
-        prob = self.selection(p) if len(self.local) > 1 else np.ones((len(p), 1))
+        prob = self.selection(p)
         for index, light in enumerate(self.local):
             m = np.nonzero(which == index)[0]
             found = light.mis(p[m], n[m], w[m]) if len(m) else None
@@ -578,6 +578,8 @@ class LightSet:
         """(N, L) probabilities of choosing each local light at points p: in proportion to its importance there
         (a light tree's idea in its simplest form: near a small lamp, the lamp), with 10 % spread uniformly so no
         light that could matter is starved."""
+        if len(self.local) <= 1:  # no choice to make
+            return np.ones((len(p), len(self.local)))
         imp = np.stack([light.importance(p, self.radius) for light in self.local], axis=1)
         total = imp.sum(axis=1, keepdims=True)
         share = np.where(total > 0, imp / np.where(total > 0, total, 1.0), 1.0 / len(self.local))
