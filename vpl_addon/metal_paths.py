@@ -29,7 +29,7 @@ import numpy as np
 
 from .direct import direct_light
 from .microfacet import GlossyLobe
-from .path_vertices import GLOSSY_LIGHT_SAMPLES, PathVertices, merged
+from .path_vertices import PathVertices, at_metal, merged
 from .sampling import group_sum
 from .surface import Surface, bounce
 
@@ -65,11 +65,7 @@ def over_metal(surface: Surface, lobe: GlossyLobe | None, scene, tracer, lights,
                 out += group_sum(end.owner, end.throughput * light, len(out))
                 following.append(end)
             shiny = np.nonzero((y.metallic > 0.0) & (carried.max(axis=1) > 0.0))[0]
-            point = y.take(shiny)
-            metal = PathVertices(point, owner[shiny], carried[shiny], GlossyLobe.of(point))
-            out += group_sum(metal.owner, metal.throughput * direct_light(point, lights, tracer, GLOSSY_LIGHT_SAMPLES,
-                                                                          rng, glossy=metal.lobe)[1], len(out))
-            following.append(metal)
+            following.append(at_metal(y, shiny, owner, carried, lights, tracer, rng, out))
         level = merged(following)
         if not level:
             break

@@ -9,8 +9,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .direct import direct_light
 from .microfacet import GlossyLobe
-from .sampling import cosine_hemisphere, dot
+from .sampling import cosine_hemisphere, dot, group_sum
 from .surface import Surface
 
 # next-event samples at a metallic vertex a camera path extends to: light reaching a diffuse point over metal
@@ -57,3 +58,14 @@ def merged(vertices: list[PathVertices]) -> list[PathVertices]:
                                     np.concatenate([v.throughput for v in part]),
                                     GlossyLobe.concat([v.lobe for v in part]) if glossy else None))
     return out
+
+
+def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.ndarray, lights, tracer, rng,
+             out: np.ndarray) -> PathVertices:
+    """The hits ``rows`` of ``y`` as metallic vertices (``owner`` and ``throughput`` given per hit), their direct
+    light through the lobe (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``) added to ``out``."""
+    point = y.take(rows)
+    metal = PathVertices(point, owner[rows], throughput[rows], GlossyLobe.of(point))
+    out += group_sum(metal.owner, metal.throughput * direct_light(point, lights, tracer, GLOSSY_LIGHT_SAMPLES, rng,
+                                                                  glossy=metal.lobe)[1], len(out))
+    return metal

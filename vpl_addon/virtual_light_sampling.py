@@ -35,7 +35,7 @@ import numpy as np
 
 from .direct import direct_light
 from .microfacet import GlossyLobe
-from .path_vertices import GLOSSY_LIGHT_SAMPLES, PathVertices, merged
+from .path_vertices import PathVertices, at_metal, merged
 from .sampling import dot, group_sum, power_heuristic, sample_cdf, uniform_cone
 from .surface import bounce
 
@@ -157,8 +157,5 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
                      direct_light(following[0].point, light_set, tracer, 1, rng)[0], len(out))
     shiny = np.nonzero(y.metallic > 0.0)[0]
     if len(shiny):
-        nxt = PathVertices(y.take(shiny), owner[at][shiny], carried[shiny], GlossyLobe.of(y.take(shiny)))
-        out += group_sum(nxt.owner, nxt.throughput *
-                         direct_light(nxt.point, light_set, tracer, GLOSSY_LIGHT_SAMPLES, rng, glossy=nxt.lobe)[1], len(out))
-        following.append(nxt)
+        following.append(at_metal(y, shiny, owner[at], carried, light_set, tracer, rng, out))
     return following
