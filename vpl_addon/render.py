@@ -139,8 +139,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         indirect = np.zeros((w * h, 3))
         # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
         shine, shine_color, glossy_color = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros((w * h, 3))
-        guide_position, guide_normal, guide_count = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros(w * h)
-        diffuse_seen = np.zeros(w * h, bool)
+        # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
+        # gathering samples of that lobe, and their number
+        guide_position, guide_normal = np.zeros((2, w * h, 3)), np.zeros((2, w * h, 3))
+        guide_count = np.zeros((2, w * h))
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
         cancelled = threading.Event()
@@ -219,12 +221,11 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
                 indirect[pixels] = _divide(group_sum(at, sub.albedo * light, len(pixels)),
                                            group_sum(at, sub.albedo, len(pixels)))
-                diffuse_seen[pixels] = np.bincount(at, minlength=len(pixels)) > 0
-                guides = rows if lobe is None else np.union1d(rows, shiny)  # the filter's guides
-                local = gbuf.sample[guides] // gbuf.spp
-                guide_position[pixels] = group_sum(local, surf.position[guides], len(pixels))
-                guide_normal[pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
-                guide_count[pixels] = np.bincount(local, minlength=len(pixels))
+                for kind, guides in enumerate((rows, shiny) if lobe is not None else (rows,)):
+                    local = gbuf.sample[guides] // gbuf.spp
+                    guide_position[kind, pixels] = group_sum(local, surf.position[guides], len(pixels))
+                    guide_normal[kind, pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
+                    guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
             images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission)
             images[P.COMBINED][pixels, 3] = gbuf.coverage
@@ -260,18 +261,19 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         t0 = time.perf_counter()
         reflected = _divide(shine, shine_color)  # Glossy Indirect
         if settings.gather.filter and settings.gather.interleave > 1:
-            count = np.maximum(guide_count, 1)[:, None]
-            position = guide_position / count
-            normal = guide_normal / np.maximum(np.linalg.norm(guide_normal, axis=1, keepdims=True), 1e-300)
-
-            def smooth(image, valid):  # each lobe's light is filtered among the pixels that have that lobe
+            def smooth(image, kind):
+                """Each lobe's light filtered among the pixels that have that lobe, guided by its own samples."""
+                count = guide_count[kind]
+                position = guide_position[kind] / np.maximum(count, 1)[:, None]
+                normal = guide_normal[kind] / np.maximum(np.linalg.norm(guide_normal[kind], axis=1, keepdims=True),
+                                                         1e-300)
                 return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
-                                    valid.reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
+                                    (count > 0).reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
                                     settings.gather.interleave).reshape(-1, 3)
-            indirect = smooth(indirect, diffuse_seen)
+            indirect = smooth(indirect, 0)
             guard("filter", {P.DIFFUSE_INDIRECT: indirect})
             if need_glossy:
-                reflected = smooth(reflected, shine_color.max(axis=1) > 0.0)
+                reflected = smooth(reflected, 1)
                 guard("filter", {P.GLOSSY_INDIRECT: reflected})
         images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + glossy_color * reflected
         if P.GLOSSY_INDIRECT in want:
