@@ -6,7 +6,9 @@ Per scene: the .blend is extracted once (timed separately), then each engine met
 ``configure_cycles`` at each sample count (wall time around Blender's render, EXR write included), and Cycles with
 OpenImageDenoise on ``Combined``. ``Diffuse Indirect`` is compared for the engine methods and plain Cycles, ``Combined``
 for all of them. Results: ``bench.csv``, ``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with
-the headline numbers (``vpl_addon.convergence``).
+the headline numbers (``vpl_addon.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
+(the engine's ``RenderSettings.seed``, Cycles' seed), one CSV row set per run; the curves take the mean wall time and
+mean rMAE of each budget's runs.
 
 Peak memory is the process's peak resident set size during each run: Linux's ``/proc/self/clear_refs`` (writing
 "5") resets the peak before a run and ``VmHWM`` reads it after, which sees everything, embree's BVH and Cycles
@@ -144,6 +146,7 @@ class Run:
     method: str
     budget: int
     wall: float
+    seed: int = 0
     extract: float | None = None
     stages: dict[str, float] = field(default_factory=dict)
     rays: int | None = None
@@ -153,7 +156,8 @@ class Run:
 
     def rows(self) -> list[dict]:
         base = {"scene": self.scene, "width": self.width, "height": self.height, "method": self.method,
-                "knob": knob_of(self.method).name, "budget": self.budget, "wall_s": _num(self.wall),
+                "knob": knob_of(self.method).name, "budget": self.budget, "seed": self.seed,
+                "wall_s": _num(self.wall),
                 "extract_s": _num(self.extract), **{f"{s}_s": _num(self.stages.get(s)) for s in STAGES},
                 "rays": "" if self.rays is None else self.rays, "peak_rss_mb": _num(self.peak_mb, 1),
                 "run_rss_mb": _num(self.rise_mb, 1)}
@@ -162,7 +166,7 @@ class Run:
 
 STAGES = ("build", "place", "gbuffer", "direct", "gather", "filter")
 METRICS = ("rmae", "relmse", "rmse_reinhard", "mean_ratio")
-COLUMNS = ("scene", "width", "height", "method", "knob", "budget", "pass", "wall_s", "extract_s",
+COLUMNS = ("scene", "width", "height", "method", "knob", "budget", "seed", "pass", "wall_s", "extract_s",
            *(f"{s}_s" for s in STAGES), "rays", "peak_rss_mb", "run_rss_mb", *METRICS)
 
 
@@ -248,8 +252,9 @@ def engine_run(built, settings: RenderSettings) -> tuple[float, object, PeakMemo
     return wall, result, memory
 
 
-def cycles_run(scene, spp: int, denoise: bool, folder: str) -> tuple[float, dict, PeakMemory]:
+def cycles_run(scene, spp: int, denoise: bool, folder: str, seed: int = 0) -> tuple[float, dict, PeakMemory]:
     configure_cycles(scene, spp)
+    scene.cycles.seed += seed
     if denoise:
         scene.cycles.use_denoising = True
         try:
@@ -351,6 +356,7 @@ class Options:
     gather_rays: int = 2_000_000
     quick: bool = False
     scaling: bool = False
+    seeds: int = 1  # runs of each budget, with seeds 0..seeds-1
 
 
 def plan(options: Options) -> dict[str, list[int]]:
@@ -367,7 +373,7 @@ class Bench:
         self.summary: list[str] = []
         self.warm: set[str] = set()
         from tqdm import tqdm
-        total = len(options.scenes) * sum(len(b) for b in self.budgets.values())
+        total = len(options.scenes) * sum(len(b) for b in self.budgets.values()) * options.seeds
         self.bar = tqdm(total=total, unit="run", file=sys.stderr, dynamic_ncols=True, mininterval=0.5,
                         bar_format="{l_bar}{bar}| {n_fmt}/{total_fmt} runs [{elapsed}<{remaining}]")
 
@@ -375,25 +381,32 @@ class Bench:
         self.bar.write(text, file=sys.stdout)
         sys.stdout.flush()
 
-    def sweep(self, method: str, label: str, run_one: Callable[[int], Run], warm_up: Callable[[int], object]) -> list:
-        """Budgets in increasing order; stops (and says so) when the next run would pass the time cap, judging
-        by the last run's time scaled by the budget ratio."""
-        runs, budgets = [], self.budgets[method]
+    def sweep(self, method: str, label: str, run_one: Callable[[int, int], Run],
+              warm_up: Callable[[int], object]) -> list:
+        """Budgets in increasing order, each run with every seed; stops (and says so) when the next budget's runs
+        would pass the time cap, judging by the last budget's mean time scaled by the budget ratio."""
+        runs, budgets, seeds = [], self.budgets[method], self.o.seeds
         if method not in self.warm:  # first use in this process: libraries, kernels, caches
             warm_up(budgets[0])
             self.warm.add(method)
         for i, budget in enumerate(budgets):
-            self.bar.set_description(f"{label} {method} {knob_of(method).name}={budget}")
-            run = run_one(budget)
-            runs.append(run)
-            self.bar.update(1)
-            shown = ", ".join(f"{p} rMAE {m['rmae']:.4f}" for p, m in run.errors.items())
-            self.say(f"  {label} {method:12s} {knob_of(method).name}={budget:<6d} {run.wall:7.2f} s  {shown}")
-            if i + 1 < len(budgets) and run.wall * budgets[i + 1] / budget > self.o.time_cap:
+            walls = []
+            for seed in range(seeds):
+                self.bar.set_description(f"{label} {method} {knob_of(method).name}={budget}"
+                                         + (f" seed {seed}" if seeds > 1 else ""))
+                run = run_one(budget, seed)
+                runs.append(run)
+                walls.append(run.wall)
+                self.bar.update(1)
+                shown = ", ".join(f"{p} rMAE {m['rmae']:.4f}" for p, m in run.errors.items())
+                self.say(f"  {label} {method:12s} {knob_of(method).name}={budget:<6d}"
+                         + (f" seed {seed:<3d}" if seeds > 1 else "") + f" {run.wall:7.2f} s  {shown}")
+            wall = sum(walls) / len(walls)
+            if i + 1 < len(budgets) and wall * budgets[i + 1] / budget > self.o.time_cap:
                 left = budgets[i + 1:]
-                self.bar.update(len(left))
+                self.bar.update(len(left) * seeds)
                 self.say(f"  {label} {method:12s} skips {knob_of(method).name}={','.join(map(str, left))}: the next "
-                         f"run would take about {run.wall * budgets[i + 1] / budget:.0f} s (--time-cap "
+                         f"run would take about {wall * budgets[i + 1] / budget:.0f} s (--time-cap "
                          f"{self.o.time_cap:g})")
                 break
         return runs
@@ -434,9 +447,9 @@ class Bench:
                 knob = knob_of(method)
                 settings = dataclasses.replace(base, method=method)
 
-                def one(budget, method=method, knob=knob, settings=settings):
-                    wall, result, mem = engine_run(built, knob.apply(settings, budget))
-                    return Run(label, w, h, method, budget, wall, t_extract, dict(result.seconds), result.rays,
+                def one(budget, seed, method=method, knob=knob, settings=settings):
+                    wall, result, mem = engine_run(built, knob.apply(dataclasses.replace(settings, seed=seed), budget))
+                    return Run(label, w, h, method, budget, wall, seed, t_extract, dict(result.seconds), result.rays,
                                mem.peak_mb, mem.rise_mb, judge(result.passes, COMPARED))
 
                 runs += self.sweep(method, label, one,
@@ -460,12 +473,12 @@ class Bench:
                 denoise = method == OIDN
                 compared = (P.COMBINED,) if denoise else COMPARED
 
-                def one(spp, denoise=denoise, compared=compared, method=method):
-                    wall, images, mem = cycles_run(scene, spp, denoise, tmp)
+                def one(spp, seed, denoise=denoise, compared=compared, method=method):
+                    wall, images, mem = cycles_run(scene, spp, denoise, tmp, seed)
                     if images[P.COMBINED].shape[:2] != (h, w):
                         raise BenchError(f"{blend}: Cycles rendered {images[P.COMBINED].shape[1]}x"
                                          f"{images[P.COMBINED].shape[0]} but the reference is {w}x{h}")
-                    return Run(label, w, h, method, spp, wall, None, {}, None, mem.peak_mb, mem.rise_mb,
+                    return Run(label, w, h, method, spp, wall, seed, None, {}, None, mem.peak_mb, mem.rise_mb,
                                judge(images, compared))
 
                 runs += self.sweep(method, label, one, lambda spp, denoise=denoise: cycles_run(scene, spp, denoise, tmp))

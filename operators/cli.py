@@ -217,7 +217,7 @@ def cmd_bench(args) -> int:
     for scene in args.scenes:
         if not os.path.isfile(scene):
             raise UserError(f"no such file: {scene}")
-    for flag in ("samples", "light_samples", "percentage", "gather_rays"):
+    for flag in ("samples", "light_samples", "percentage", "gather_rays", "seeds"):
         value = getattr(args, flag)
         if value is not None and value < (0 if flag == "light_samples" else 1):
             raise UserError(f"--{flag.replace('_', '-')} must be at least {0 if flag == 'light_samples' else 1}")
@@ -242,7 +242,7 @@ def cmd_bench(args) -> int:
                       time_cap=args.time_cap if args.time_cap is not None else (10.0 if quick else 40.0),
                       reference_samples=args.reference_samples, cache_dir=args.cache_dir,
                       gather_rays=args.gather_rays or (200_000 if quick else 2_000_000), quick=quick,
-                      scaling=args.scaling)
+                      scaling=args.scaling, seeds=args.seeds or 1)
     if args.reference_dir:
         options.reference_dir = os.path.abspath(args.reference_dir)
     _ensure_registered()
@@ -360,6 +360,9 @@ def parser() -> argparse.ArgumentParser:
     b.add_argument("--time-cap", type=float,
                    help="skip a method's larger budgets once its next run would take longer than this many seconds "
                         "(default 40; --quick: 10)")
+    b.add_argument("--seeds", type=int,
+                   help="run every budget with seeds 0..N-1; the curves take each budget's mean time and rMAE "
+                        "(default 1)")
     b.add_argument("--scaling", action="store_true",
                    help="also time the first scene against triangle, pixel and VPL count (scaling.csv)")
     b.add_argument("--gather-rays", type=int, help="gather shadow rays replayed against raw embreex (default 2 M)")

@@ -31,6 +31,12 @@ def test_curves_are_ordered_by_budget():
     assert list(c.budget) == [4, 16] and list(c.seconds) == [1.0, 4.0] and list(c.error) == [0.4, 0.2]
 
 
+def test_runs_of_one_budget_are_averaged():
+    c = Curve.of([3.0, 1.0, 5.0, 2.0], [0.5, 0.1, 0.3, 0.2], [16, 4, 16, 4])  # two seeds of each budget
+    assert list(c.budget) == [4, 16]
+    assert np.allclose(c.seconds, [1.5, 4.0]) and np.allclose(c.error, [0.15, 0.4])
+
+
 def test_time_to_error_interpolates_bounds_and_extrapolates_with_a_label():
     inside = time_to_error(CYCLES, 0.25)
     assert inside.value == pytest.approx((0.4 / 0.25) ** 2, rel=1e-12) and inside.note == ""
@@ -118,6 +124,17 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     code, _, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--out", out)
     assert_one_line_error(code, stderr, "--overwrite")
     assert (out / "bench.csv").read_bytes() == before
+
+
+@pytest.mark.blender
+def test_bench_runs_each_budget_with_every_seed(tmp_path):
+    code, _, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--methods", "ir",
+                              "--budgets", "ir=64", "--seeds", "2", "--out", tmp_path)
+    assert code == 0, stderr
+    with open(tmp_path / "bench.csv", newline="") as f:
+        rows = [r for r in csv.DictReader(f) if r["pass"] == "Diffuse Indirect"]
+    assert sorted(int(r["seed"]) for r in rows) == [0, 1]
+    assert rows[0]["rmae"] != rows[1]["rmae"]  # another seed, another draw of VPLs and camera samples
 
 
 @pytest.mark.blender
