@@ -126,6 +126,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     assert (out / "bench.csv").read_bytes() == before
 
 
+@pytest.mark.blender
 def test_peak_memory_does_not_count_the_heap_earlier_runs_freed(ext):
     from vpl_gi.operators.bench import PeakMemory, _status_kb
     start = _status_kb("VmRSS") / 1024
