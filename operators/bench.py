@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import csv
-import ctypes
 import dataclasses
 import os
 import sys
@@ -35,6 +34,7 @@ from ..vpl_addon import convergence as C
 from ..vpl_addon import passes as P
 from ..vpl_addon import tracer as tracer_module
 from ..vpl_addon.exr import read_passes
+from ..vpl_addon.memory import status_kb, trim_heap
 from ..vpl_addon.methods import METHODS
 from ..vpl_addon.metrics import coverage_mask, errors, pass_mask
 from ..vpl_addon.render import RenderSettings, render
@@ -120,36 +120,20 @@ class PeakMemory:
 
     def __enter__(self):
         self.peak_mb = self.rise_mb = None
-        _trim_heap()
+        trim_heap()
         try:
             with open("/proc/self/clear_refs", "w") as f:
                 f.write("5")
-            self.start = _status_kb("VmRSS")
+            self.start = status_kb("VmRSS")
         except OSError:
             self.start = None
         return self
 
     def __exit__(self, *exc):
         if self.start is not None:
-            peak = _status_kb("VmHWM")
+            peak = status_kb("VmHWM")
             self.peak_mb, self.rise_mb = peak / 1024, max(0, peak - self.start) / 1024
         return False
-
-
-def _trim_heap() -> None:
-    """Return the freed heap to the system where the C library can (glibc's ``malloc_trim``)."""
-    try:
-        ctypes.CDLL(None).malloc_trim(0)
-    except (AttributeError, OSError):  # not glibc
-        pass
-
-
-def _status_kb(key: str) -> int:
-    with open("/proc/self/status") as f:
-        for line in f:
-            if line.startswith(key + ":"):
-                return int(line.split()[1])
-    raise OSError(f"{key} not in /proc/self/status")
 
 
 @dataclass

@@ -11,6 +11,7 @@ import bpy
 import numpy as np
 
 from ..vpl_addon import passes as P
+from ..vpl_addon.memory import trim_heap
 from ..vpl_addon.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
 from .bake import FRAME_LOG, active_sequence
@@ -49,6 +50,12 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self.error_set(message)
 
     def render(self, depsgraph):
+        try:
+            self._render(depsgraph)
+        finally:  # what the render freed goes back to the system, not into Blender's idle footprint
+            trim_heap()
+
+    def _render(self, depsgraph):
         LAST_REPORTS.clear()
         LAST_STATS.clear()
         scene = depsgraph.scene

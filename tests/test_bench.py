@@ -128,8 +128,9 @@ def test_bench_cli_tiny_run(ext, tmp_path):
 
 @pytest.mark.blender
 def test_peak_memory_does_not_count_the_heap_earlier_runs_freed(ext):
-    from vpl_gi.operators.bench import PeakMemory, _status_kb
-    start = _status_kb("VmRSS") / 1024
+    from vpl_gi.operators.bench import PeakMemory
+    from vpl_gi.vpl_addon.memory import status_kb
+    start = status_kb("VmRSS") / 1024
     big = np.ones(2_500_000)
     del big  # a freed 20 MB mapping: glibc now serves arrays up to that size from its heap
     chunks, pins = [], []
