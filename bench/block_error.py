@@ -14,8 +14,8 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from vpl_addon.exr import read_passes  # noqa: E402
-from vpl_addon.metrics import FULL_COVERAGE, errors  # noqa: E402
+from vpl_addon.core.exr import read_passes  # noqa: E402
+from vpl_addon.evaluation.metrics import FULL_COVERAGE, errors  # noqa: E402
 
 
 def blocks(x: np.ndarray, k: int) -> np.ndarray:

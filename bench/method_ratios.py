@@ -1,6 +1,6 @@
-"""Equal-time error ratios between engine methods, read from a ``bench.csv``: how many times lower one method's rMAE
-is than a baseline's at the same wall time (log-log interpolation between runs, as ``vpl_addon.convergence`` does
-against Cycles; a time outside either curve is n/a, never extrapolated). Runs of one budget with other seeds
+"""Equal-time error ratios between engine methods, read from a ``bench.csv``: how many times lower one method's rMAE is
+than a baseline's at the same wall time (log-log interpolation between runs, as ``vpl_addon.evaluation.convergence``
+does against Cycles; a time outside either curve is n/a, never extrapolated). Runs of one budget with other seeds
 (``bench --seeds``) count as one point, their mean time and mean rMAE (``Curve.of``).
 
     .venv/bin/python bench/method_ratios.py out/bench_ajar/bench.csv [--baseline ir] [--pass "Diffuse Indirect"]
@@ -14,7 +14,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-from vpl_addon import convergence as C  # noqa: E402
+from vpl_addon.evaluation import convergence as C  # noqa: E402
 
 
 def curves(rows, scene, pass_name):

@@ -21,11 +21,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path[:0] = [ROOT, os.path.join(ROOT, "tests")]
 
 from test_path_verification import room_with_block, room_with_lamp  # noqa: E402
-from vpl_addon.light_paths import trace_until  # noqa: E402
+from vpl_addon.core.tracer import Tracer  # noqa: E402
 from vpl_addon.lights import LightSet  # noqa: E402
-from vpl_addon.motion import Motion, Snapshot  # noqa: E402
-from vpl_addon.path_verification import LightPathStore  # noqa: E402
-from vpl_addon.tracer import Tracer  # noqa: E402
+from vpl_addon.paths.light_paths import trace_until  # noqa: E402
+from vpl_addon.sequence.motion import Motion, Snapshot  # noqa: E402
+from vpl_addon.sequence.path_verification import LightPathStore  # noqa: E402
 
 LO, HI, CELLS = np.array([-3.0, -3.0, 0.0]), np.array([3.0, 2.0, 4.0]), np.array([6, 5, 4])
 

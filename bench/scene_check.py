@@ -33,7 +33,7 @@ from PIL import Image  # noqa: E402
 scene_import = importlib.import_module(f"{PKG}.operators.scene_import")
 reference = importlib.import_module(f"{PKG}.operators.reference")
 output = importlib.import_module(f"{PKG}.operators.output")
-exr = importlib.import_module(f"{PKG}.vpl_addon.exr")
+exr = importlib.import_module(f"{PKG}.vpl_addon.core.exr")
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 

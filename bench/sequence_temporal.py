@@ -80,7 +80,7 @@ def main(argv=None):
                 *(["--percentage", args.percentage] if args.percentage else []))
     print(f"references: {time.perf_counter() - t0:.0f} s", flush=True)
 
-    from vpl_addon.compare import compare_sequences
+    from vpl_addon.evaluation.compare import compare_sequences
     results = {}
     runs = args.run or ["smc=smc", "bidir=bidir"]
     for run in runs:

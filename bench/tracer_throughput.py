@@ -32,7 +32,7 @@ def main():
     from embreex.mesh_construction import TriangleMesh
     from vpl_gi.operators.bench import best_of
     from vpl_gi.operators.extract import extract
-    from vpl_gi.vpl_addon.tracer import Tracer
+    from vpl_gi.vpl_addon.core.tracer import Tracer
 
     bpy.ops.wm.open_mainfile(filepath=args.scene)
     scene, _ = extract(bpy.context.evaluated_depsgraph_get())

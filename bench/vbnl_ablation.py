@@ -29,13 +29,13 @@ def main():
     rows = []
     for name in args.scenes.split(","):
         scene = load_scene(ROOT / "example_blends" / f"{name}.blend")
-        from vpl_gi.vpl_addon import passes as P
-        from vpl_gi.vpl_addon.exr import read_passes
+        from vpl_gi.vpl_addon.core import passes as P
+        from vpl_gi.vpl_addon.core.exr import read_passes
+        from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask, errors
         from vpl_gi.vpl_addon.methods import MethodSettings
         from vpl_gi.vpl_addon.methods.vbnl import VBNLSettings
-        from vpl_gi.vpl_addon.metrics import coverage_mask, errors
+        from vpl_gi.vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
         from vpl_gi.vpl_addon.render import RenderSettings, render
-        from vpl_gi.vpl_addon.virtual_light_sampling import SamplingSettings
         ref, _ = read_passes(str(ROOT / "tests" / "references" / f"{name}.exr"))
         mask = coverage_mask(ref[P.COMBINED][..., 3], ref[P.COMBINED].shape[:2])
         runs = [("bidir", "-", "-", int(v), dict(method="bidir", placement=MethodSettings(vpls=int(v))))

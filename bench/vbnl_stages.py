@@ -40,12 +40,12 @@ def main():
     ap.add_argument("--photons", type=int, default=10_000_000)
     args = ap.parse_args()
     scene = load_scene(args.scene)
-    from vpl_gi.vpl_addon.light_paths import trace_paths
+    from vpl_gi.vpl_addon.core.tracer import Tracer
     from vpl_gi.vpl_addon.lights import LightSet
     from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates
-    from vpl_gi.vpl_addon.photon_lights import ALPHA, PhotonLights
-    from vpl_gi.vpl_addon.sample_elimination import eliminate
-    from vpl_gi.vpl_addon.tracer import Tracer
+    from vpl_gi.vpl_addon.methods.vbnl.photon_lights import ALPHA, PhotonLights
+    from vpl_gi.vpl_addon.methods.vbnl.sample_elimination import eliminate
+    from vpl_gi.vpl_addon.paths.light_paths import trace_paths
 
     rng = np.random.default_rng(0)
     tracer = Tracer(scene.triangles)

@@ -25,7 +25,7 @@ from typing import Callable
 
 import bpy
 
-from ..vpl_addon.sequence import SequenceState, frame_seed
+from ..vpl_addon.sequence.state import SequenceState, frame_seed
 
 MANIFEST = "bake.json"
 STATE_DIR = ".bake-state"

@@ -5,8 +5,8 @@ Per scene: the .blend is extracted once (timed separately), then each engine met
 ``vpl_addon.render.render`` with its budget knob set (wall time measured around ``render()``), Cycles renders with
 ``configure_cycles`` at each sample count (wall time around Blender's render, EXR write included), and Cycles with
 OpenImageDenoise on ``Combined``. ``Diffuse Indirect`` is compared for the engine methods and plain Cycles, ``Combined``
-for all of them. Results: ``bench.csv``, ``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with
-the headline numbers (``vpl_addon.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
+for all of them. Results: ``bench.csv``, ``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the
+headline numbers (``vpl_addon.evaluation.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
 (the engine's ``RenderSettings.seed``, Cycles' seed), one CSV row set per run; the curves take the mean wall time and
 mean rMAE of each budget's runs.
 
@@ -30,15 +30,15 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ..vpl_addon import convergence as C
-from ..vpl_addon import passes as P
-from ..vpl_addon import tracer as tracer_module
-from ..vpl_addon.exr import read_passes
-from ..vpl_addon.memory import status_kb, trim_heap
+from ..vpl_addon.core import passes as P
+from ..vpl_addon.core import tracer as tracer_module
+from ..vpl_addon.core.exr import read_passes
+from ..vpl_addon.core.memory import status_kb, trim_heap
+from ..vpl_addon.evaluation import convergence as C
+from ..vpl_addon.evaluation.metrics import coverage_mask, errors, pass_mask
+from ..vpl_addon.evaluation.subdivision import levels_for, subdivide
 from ..vpl_addon.methods import METHODS
-from ..vpl_addon.metrics import coverage_mask, errors, pass_mask
 from ..vpl_addon.render import RenderSettings, render
-from ..vpl_addon.subdivision import levels_for, subdivide
 from .extract import ExtractionError, extract
 from .output import render_to
 from .reference import configure_cycles, make_reference, reference_hash, stored_info
@@ -275,7 +275,7 @@ def record_gather_rays(built, settings: RenderSettings, limit: int) -> tuple[np.
 
     def recorder(origins, dirs, tmax):
         frame, from_gather = sys._getframe(1), False
-        for _ in range(6):  # occluded <- visible <- connect (gather.py) <- ...
+        for _ in range(6):  # occluded <- visible <- connect (gather/summing.py) <- ...
             frame = frame.f_back
             if frame is None:
                 break
@@ -316,7 +316,7 @@ def gather_ray_throughput(triangles: np.ndarray, origins, dirs, tmax) -> dict:
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
 
-    from ..vpl_addon.tracer import FAR, Tracer
+    from ..vpl_addon.core.tracer import FAR, Tracer
     raw = rtcore_scene.EmbreeScene()
     TriangleMesh(raw, np.ascontiguousarray(triangles, np.float32))
     t32 = np.minimum(tmax, FAR).astype(np.float32)

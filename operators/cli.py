@@ -185,7 +185,7 @@ def cmd_reference(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from ..vpl_addon.compare import compare_files, compare_sequences
+    from ..vpl_addon.evaluation.compare import compare_files, compare_sequences
     folders = [os.path.isdir(p) for p in (args.image, args.reference)]
     for path, folder in zip((args.image, args.reference), folders):
         if not (folder or os.path.isfile(path)):

@@ -10,9 +10,9 @@ import time
 import bpy
 import numpy as np
 
-from ..vpl_addon import passes as P
-from ..vpl_addon.memory import trim_heap
-from ..vpl_addon.passes import BadOutput
+from ..vpl_addon.core import passes as P
+from ..vpl_addon.core.memory import trim_heap
+from ..vpl_addon.core.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
 from .bake import FRAME_LOG, active_sequence
 from .extract import ExtractionError, extract

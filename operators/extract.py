@@ -10,9 +10,9 @@ import math
 
 import numpy as np
 
-from ..vpl_addon.camera import Camera, view_window
+from ..vpl_addon.core.camera import Camera, view_window
+from ..vpl_addon.core.scene import Materials, Scene
 from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
-from ..vpl_addon.scene import Materials, Scene
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 

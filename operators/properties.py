@@ -5,11 +5,11 @@ from dataclasses import replace
 
 import bpy
 
-from ..vpl_addon.gather import GatherSettings
+from ..vpl_addon.gather.summing import GatherSettings
 from ..vpl_addon.methods import MethodSettings
 from ..vpl_addon.methods.vbnl import VBNLSettings
+from ..vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
 from ..vpl_addon.render import RenderSettings
-from ..vpl_addon.virtual_light_sampling import SamplingSettings
 
 _RENDER, _GATHER, _PLACE = RenderSettings(), GatherSettings(), MethodSettings()
 _VBNL = _PLACE.vbnl

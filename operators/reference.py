@@ -14,8 +14,8 @@ import time
 
 import bpy
 
-from ..vpl_addon import passes as P
-from ..vpl_addon.exr import read_passes, write_passes
+from ..vpl_addon.core import passes as P
+from ..vpl_addon.core.exr import read_passes, write_passes
 from .engine import PASS_TOGGLES
 from .output import render_to
 

@@ -68,8 +68,8 @@ def run_cli(*args, cwd=ROOT, timeout=600):
 def plane_scene(lights=(), world=(0.0, 0.0, 0.0), size=10.0, height=5.0, res=32, view=2.0, materials=None,
                 center=(0.0, 0.0, 0.0), scale=1.0):
     """A square floor (z = 0, facing +Z) seen straight down by an orthographic camera: pixel <-> position."""
-    from vpl_addon.camera import Camera, view_window
-    from vpl_addon.scene import Materials, Scene
+    from vpl_addon.core.camera import Camera, view_window
+    from vpl_addon.core.scene import Materials, Scene
     c = np.asarray(center, float)
     s = size * scale
     tri = np.array([[[-s, -s, 0], [s, -s, 0], [s, s, 0]], [[-s, -s, 0], [s, s, 0], [-s, s, 0]]], float) + c

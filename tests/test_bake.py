@@ -27,7 +27,7 @@ def test_a_static_bake_traces_light_paths_in_frame_one_only_and_resumes_by_skipp
     assert all(" 0 light paths (reused)" in l for l in lines[1:])
     assert frames_in(out) == ["frame_0001.exr", "frame_0002.exr", "frame_0003.exr"]
     assert not list(out.glob(".partial-*"))
-    from vpl_addon.exr import read_passes
+    from vpl_addon.core.exr import read_passes
     first, _ = read_passes(out / "frame_0001.exr")
     third, _ = read_passes(out / "frame_0003.exr")
     assert {"Combined", "Diffuse Indirect", "Diffuse Direct", "Diffuse Color"} <= set(third)
@@ -79,7 +79,7 @@ def test_killed_bake_resumes_to_the_same_files_as_an_uninterrupted_one(tmp_path)
     assert proc.returncode == -signal.SIGKILL
     done = frames_in(killed)
     assert 3 <= len(done) < 8
-    from vpl_addon.exr import read_passes
+    from vpl_addon.core.exr import read_passes
     for name in done:  # every file under a final name is a whole image
         assert read_passes(killed / name)[0]["Combined"].shape == (64, 64, 4)
     code, stdout, stderr = run_cli(*args, "-o", killed)

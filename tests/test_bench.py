@@ -8,8 +8,8 @@ import pytest
 
 from conftest import EXAMPLES, plane_scene, run_cli
 from test_cli import assert_one_line_error
-from vpl_addon.convergence import Curve, equal_error, equal_time, error_at, fit_exponent, time_to_error
-from vpl_addon.subdivision import levels_for, subdivide
+from vpl_addon.evaluation.convergence import Curve, equal_error, equal_time, error_at, fit_exponent, time_to_error
+from vpl_addon.evaluation.subdivision import levels_for, subdivide
 
 # Cycles-like: error halves when time quadruples (error ~ t^-1/2)
 CYCLES = Curve.of([1.0, 4.0, 16.0, 64.0], [0.4, 0.2, 0.1, 0.05], [1, 4, 16, 64])
@@ -129,7 +129,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
 @pytest.mark.blender
 def test_peak_memory_does_not_count_the_heap_earlier_runs_freed(ext):
     from vpl_gi.operators.bench import PeakMemory
-    from vpl_gi.vpl_addon.memory import status_kb
+    from vpl_gi.vpl_addon.core.memory import status_kb
     start = status_kb("VmRSS") / 1024
     big = np.ones(2_500_000)
     del big  # a freed 20 MB mapping: glibc now serves arrays up to that size from its heap

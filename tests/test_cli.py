@@ -19,7 +19,7 @@ def assert_one_line_error(code, err, *words):
 
 
 def test_render_writes_cycles_named_passes_and_a_timing_line(small_blend, tmp_path):
-    from vpl_addon.exr import read_passes
+    from vpl_addon.core.exr import read_passes
     out = tmp_path / "out.exr"
     code, stdout, stderr = run_cli("render", small_blend(), "-o", out, "--samples", "4", "--frame", "1")
     assert code == 0, stderr
@@ -61,7 +61,7 @@ def test_scene_without_camera(small_blend, tmp_path):
 
 
 def test_scene_without_lights_renders_black_and_says_so(small_blend, tmp_path):
-    from vpl_addon.exr import read_passes
+    from vpl_addon.core.exr import read_passes
     code, _, stderr = run_cli("render", small_blend(light=False), "-o", tmp_path / "o.exr", "--samples", "2")
     assert code == 0 and "no lights" in stderr
     passes, _ = read_passes(str(tmp_path / "o.exr"))

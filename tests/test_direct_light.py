@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from conftest import plane_scene
+from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.lights import AreaLight, EmissiveTriangles, PointLight, SpotLight, SunLight
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.scene import Materials, Scene
 
 H = 1.0  # light height above the floor
 SETTINGS = RenderSettings(samples=16, light_samples=16)

@@ -11,7 +11,7 @@ def test_blender_does_not_keep_the_memory_a_render_freed(ext):
     handed back after the render, Blender stays that much larger (458 MB here) until it exits."""
     import bpy
     from vpl_gi.operators import engine
-    from vpl_gi.vpl_addon.memory import status_kb, trim_heap
+    from vpl_gi.vpl_addon.core.memory import status_kb, trim_heap
     bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / "cornell_area.blend"))
     scene = bpy.context.scene
     scene.render.engine = engine.VPLGIRenderEngine.bl_idname

@@ -4,12 +4,12 @@ import os
 import numpy as np
 import pytest
 
-from vpl_addon.camera import Camera, filter_inverse_cdf, view_window
-from vpl_addon.exr import read_passes, write_passes
-from vpl_addon.metrics import coverage_mask, errors
-from vpl_addon.scene import Materials, Scene
-from vpl_addon.textures import sample_bilinear
-from vpl_addon.tracer import Tracer
+from vpl_addon.core.camera import Camera, filter_inverse_cdf, view_window
+from vpl_addon.core.exr import read_passes, write_passes
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.core.tracer import Tracer
+from vpl_addon.evaluation.metrics import coverage_mask, errors
+from vpl_addon.materials.textures import sample_bilinear
 
 CAM = Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=False))
 

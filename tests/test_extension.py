@@ -48,7 +48,7 @@ def run(*args, env=None):
 
 
 def test_extension_builds_validates_installs_and_renders(tmp_path):
-    from vpl_addon.exr import read_passes
+    from vpl_addon.core.exr import read_passes
     tool = blender_ext_tool()
     missing = [w for w in ("wheels",) if not (ROOT / w).is_dir()]
     assert not missing, "run `make wheels` first: the extension bundles the embreex and scipy wheels"

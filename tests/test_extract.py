@@ -169,7 +169,7 @@ def test_camera_and_world(bpy):
     world.node_tree.nodes["Background"].inputs["Strength"].default_value = 2
     scene_bpy.world = world
     scene, _ = extracted(bpy)
-    from vpl_gi.vpl_addon.camera import view_window
+    from vpl_gi.vpl_addon.core.camera import view_window
     assert (scene.camera.width, scene.camera.height) == (200, 100)
     assert np.allclose(scene.camera.window, view_window(200, 100, orthographic=False, lens=35, sensor_width=36,
                                                         sensor_height=cam.sensor_height, sensor_fit="VERTICAL",

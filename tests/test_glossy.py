@@ -5,11 +5,11 @@ import numpy as np
 import pytest
 
 from conftest import plane_scene
-from vpl_addon import microfacet as M
+from vpl_addon.core.sampling import uniform_sphere
+from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.lights import SunLight
+from vpl_addon.materials import microfacet as M
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.sampling import uniform_sphere
-from vpl_addon.scene import Materials, Scene
 
 K = 200_000
 

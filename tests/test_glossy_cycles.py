@@ -19,9 +19,9 @@ def metal_box(ext):
     import bpy
     from vpl_gi.operators.extract import extract
     from vpl_gi.operators.reference import reference_hash, stored_info
-    from vpl_gi.vpl_addon import passes as P
-    from vpl_gi.vpl_addon.exr import read_passes
-    from vpl_gi.vpl_addon.metrics import coverage_mask
+    from vpl_gi.vpl_addon.core import passes as P
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask
 
     info = stored_info(str(REFERENCES / f"{NAME}.exr"))
     assert info.get("hash") == reference_hash(str(EXAMPLES / f"{NAME}.blend"), info["samples"], info["frame"],
@@ -36,9 +36,9 @@ def metal_box(ext):
 
 
 def test_vbnl_glossy_passes_match_cycles_on_the_metal_block(metal_box):
-    from vpl_gi.vpl_addon import passes as P
+    from vpl_gi.vpl_addon.core import passes as P
+    from vpl_gi.vpl_addon.evaluation.metrics import errors
     from vpl_gi.vpl_addon.methods import MethodSettings
-    from vpl_gi.vpl_addon.metrics import errors
     from vpl_gi.vpl_addon.render import RenderSettings, render
 
     scene, ref, full, metal = metal_box
@@ -69,9 +69,9 @@ def test_vbnl_glossy_passes_match_cycles_on_the_metal_block(metal_box):
 def test_summed_vpl_methods_carry_light_over_the_metal_block(metal_box, method):
     """ir and bidir continue camera paths through metal to their VPL gather (``metal_paths``): the block's Glossy
     Indirect within 10 % of Cycles' brightness (it was black before) and the walls' Diffuse Indirect within 5 %."""
-    from vpl_gi.vpl_addon import passes as P
+    from vpl_gi.vpl_addon.core import passes as P
+    from vpl_gi.vpl_addon.evaluation.metrics import errors
     from vpl_gi.vpl_addon.methods import MethodSettings
-    from vpl_gi.vpl_addon.metrics import errors
     from vpl_gi.vpl_addon.render import RenderSettings, render
 
     scene, ref, full, metal = metal_box

@@ -6,11 +6,11 @@ black (the VPLs stand only on diffuse surfaces and are reached by straight rays)
 import numpy as np
 import pytest
 
-from vpl_addon import microfacet as M
-from vpl_addon.camera import Camera, view_window
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.materials import microfacet as M
 from vpl_addon.methods import MethodSettings
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.scene import Materials, Scene
 
 WORLD, ROUGHNESS, F0, HEIGHT = 0.6, 0.3, (0.9, 0.7, 0.5), 1.0
 

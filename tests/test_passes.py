@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from conftest import plane_scene
-from vpl_addon import passes as P
-from vpl_addon.gather import GatherSettings
+from vpl_addon.core import passes as P
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import SunLight
 from vpl_addon.methods import MethodSettings
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.scene import Materials, Scene
 
 VIEW = 0.05  # 5 cm seen by 5 x 5 pixels: the light hardly changes from pixel to pixel
 

@@ -3,16 +3,16 @@ import numpy as np
 import pytest
 
 from conftest import plane_scene
-from vpl_addon.gather import GatherSettings
+from vpl_addon.core.scene import Scene
+from vpl_addon.core.tracer import Tracer
+from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodSettings
-from vpl_addon.motion import Motion, Snapshot
-from vpl_addon.light_paths import trace_until
-from vpl_addon.path_verification import LightPathStore, segments_crossing_boxes
+from vpl_addon.paths.light_paths import trace_until
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.scene import Scene
-from vpl_addon.sequence import SequenceState, frame_seed
-from vpl_addon.tracer import Tracer
+from vpl_addon.sequence.motion import Motion, Snapshot
+from vpl_addon.sequence.path_verification import LightPathStore, segments_crossing_boxes
+from vpl_addon.sequence.state import SequenceState, frame_seed
 
 BOX = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
 FACES = [(0, 2, 1), (0, 3, 2), (4, 5, 6), (4, 6, 7), (0, 1, 5), (0, 5, 4), (1, 2, 6), (1, 6, 5), (2, 3, 7),
@@ -110,7 +110,7 @@ def test_paths_follow_a_moving_light_through_distribution_maps():
     """Sec. 3.1: a lamp moved by 0.1 m carries its paths' emission samples; the distribution map keeps each cell
     near its target; the result agrees with a full re-trace; a power change rescales without a ray; a static frame
     traces nothing."""
-    from vpl_addon import distribution_map as dm
+    from vpl_addon.sequence import distribution_map as dm
     a, b = room_with_lamp(0.0), room_with_lamp(0.1)
     assert Motion.between(Snapshot.of(a), Snapshot.of(b)).lights_changed
     ta, tb = Tracer(a.triangles), Tracer(b.triangles)

@@ -255,7 +255,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
     import OpenEXR
     import tempfile
     scene_import = importlib.import_module(f"{ext.__name__}.operators.scene_import")
-    read_passes = importlib.import_module(f"{ext.__name__}.vpl_addon.exr").read_passes
+    read_passes = importlib.import_module(f"{ext.__name__}.vpl_addon.core.exr").read_passes
     render_to = importlib.import_module(f"{ext.__name__}.operators.output").render_to
     from mathutils import Vector
     h, w = 32, 64
@@ -292,7 +292,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
 def test_color_divided_passes_leave_out_pixels_without_diffuse_colour():
     """Cycles writes Diffuse Direct/Indirect = 0 where Diffuse Color is 0 (a metal floor): those pixels are not
     compared, or a correct engine value there would count as an error of 100 times the mean."""
-    from vpl_addon.metrics import errors, pass_mask
+    from vpl_addon.evaluation.metrics import errors, pass_mask
     ref_color = np.ones((2, 2, 3))
     ref_color[0, 0] = 0.0  # metal
     reference = {"Diffuse Color": ref_color, "Diffuse Indirect": np.where(ref_color > 0, 0.5, 0.0)}

@@ -3,15 +3,15 @@ import numpy as np
 import pytest
 
 from conftest import plane_scene
-from vpl_addon.gather import GatherSettings
+from vpl_addon.core.scene import Scene
+from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import PointLight
 from vpl_addon.methods import METHODS, MethodSettings
 from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.vbnl import VBNLSettings
-from vpl_addon.motion import Motion, Snapshot
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.scene import Scene
-from vpl_addon.sequence import SequenceState, frame_seed
+from vpl_addon.sequence.motion import Motion, Snapshot
+from vpl_addon.sequence.state import SequenceState, frame_seed
 
 WALL = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
 

@@ -4,15 +4,15 @@ import pytest
 
 from conftest import plane_scene
 from test_sequence import lamp_scene
-from vpl_addon.indirect_visibility import in_view, validate
-from vpl_addon.knn_density import knn_density, rendering_k
+from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import LightSet, PointLight
+from vpl_addon.materials.surface import Surface
 from vpl_addon.methods import MethodContext, MethodSettings, smc
 from vpl_addon.methods.smc import SMCSettings
-from vpl_addon.motion import Motion, Snapshot
-from vpl_addon.surface import Surface
-from vpl_addon.tracer import Tracer
-from vpl_addon.vpl_radiosity import estimate_radiosity, vpl_numbers
+from vpl_addon.methods.smc.indirect_visibility import in_view, validate
+from vpl_addon.methods.smc.knn_density import knn_density, rendering_k
+from vpl_addon.methods.smc.vpl_radiosity import estimate_radiosity, vpl_numbers
+from vpl_addon.sequence.motion import Motion, Snapshot
 
 
 def test_knn_density_of_a_grid_and_the_k_of_eq_8():
@@ -110,7 +110,7 @@ def test_at_most_m_max_vpls_move_per_frame_and_the_budget_is_kept():
 def test_smc_lights_a_floor_off_a_wall_like_instant_radiosity():
     """The single-frame estimate (cold start with warm-up) agrees with ir on the light bounced off the wall, up to
     the bias of its areas (the hits at the wall's lower edge have no neighbours below: their kNN areas are too big)."""
-    from vpl_addon.gather import GatherSettings
+    from vpl_addon.gather.summing import GatherSettings
     from vpl_addon.render import RenderSettings, render
     scene = lamp_scene()
     common = dict(samples=4, light_samples=0, passes=("Combined", "Diffuse Indirect"),

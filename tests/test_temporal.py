@@ -3,8 +3,8 @@ import numpy as np
 import pytest
 
 from conftest import run_cli
-from vpl_addon.exr import write_passes
-from vpl_addon.temporal import reinhard, temporal_errors, tracked_pixels
+from vpl_addon.core.exr import write_passes
+from vpl_addon.evaluation.temporal import reinhard, temporal_errors, tracked_pixels
 
 
 def frames(values, shape=(4, 4)):

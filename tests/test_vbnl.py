@@ -6,12 +6,12 @@ import pytest
 from scipy.spatial import cKDTree
 
 from conftest import plane_scene
+from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodContext, MethodSettings, place
 from vpl_addon.methods.vbnl import VBNLSettings, catchment
-from vpl_addon.photon_lights import PhotonLights
-from vpl_addon.sample_elimination import WEIGHT_EXPONENT, eliminate
-from vpl_addon.tracer import Tracer
+from vpl_addon.methods.vbnl.photon_lights import PhotonLights
+from vpl_addon.methods.vbnl.sample_elimination import WEIGHT_EXPONENT, eliminate
 
 
 def uneven_points(count, seed=1):
@@ -127,7 +127,7 @@ def test_catchment_of_lights_on_a_thin_strip_is_measured_again():
     the strip, and an area from them is up to 51 % off (so is the light's radiance I_j / A_j); the lights that few
     points found are measured again with 16 times as many, and every area is then within 15 % of the strip's part
     of the disc."""
-    from vpl_addon.scene import Materials, Scene
+    from vpl_addon.core.scene import Materials, Scene
     w, r, n = 0.02, 0.2, 200
     strip = np.array([[[-w / 2, -100, 0], [w / 2, -100, 0], [w / 2, 100, 0]],
                       [[-w / 2, -100, 0], [w / 2, 100, 0], [-w / 2, 100, 0]]], float)
@@ -145,8 +145,8 @@ def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
     """A point light between a grey floor and a ceiling the camera looks up at: the candidates land on the floor
     (the camera's BSDF rays bounce down from the ceiling), and with one bounce their radiance L_j = I_j / A_j is
     the floor's reflected radiance, albedo E / pi with E = P cos / (4 pi d^2)."""
-    from vpl_addon.camera import Camera, view_window
-    from vpl_addon.scene import Scene
+    from vpl_addon.core.camera import Camera, view_window
+    from vpl_addon.core.scene import Scene
     lamp = PointLight("lamp", [0.0, 0.0, 1.0], [400.0] * 3)
     quad = np.array([[[-2, -2, 0], [2, -2, 0], [2, 2, 0]], [[-2, -2, 0], [2, 2, 0], [-2, 2, 0]]], float)
     up = np.diag([1.0, -1.0, -1.0, 1.0])

@@ -3,17 +3,17 @@ import numpy as np
 import pytest
 
 from conftest import plane_scene
-from vpl_addon.gather import GatherSettings, clamp_distance, gather
-from vpl_addon.light_paths import trace_until
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.core.tracer import Tracer
+from vpl_addon.gather.summing import GatherSettings, clamp_distance, gather
+from vpl_addon.gather.virtual_lights import VirtualLights
 from vpl_addon.lights import AreaLight, EmissiveTriangles, LightSet, PointLight, SpotLight, SunLight, WorldLight
+from vpl_addon.materials.surface import Surface
 from vpl_addon.methods import MethodSettings
+from vpl_addon.methods.bidir.resampling import resample
 from vpl_addon.methods.vbnl import VBNLSettings
+from vpl_addon.paths.light_paths import trace_until
 from vpl_addon.render import RenderSettings, render
-from vpl_addon.resampling import resample
-from vpl_addon.scene import Materials, Scene
-from vpl_addon.surface import Surface
-from vpl_addon.tracer import Tracer
-from vpl_addon.virtual_lights import VirtualLights
 
 CENTER, RADIUS = np.zeros(3), 2.0
 

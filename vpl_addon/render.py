@@ -23,17 +23,17 @@ from typing import Callable
 
 import numpy as np
 
-from . import passes as P
-from .bilateral import deinterleave
-from .direct import direct_light
-from .gather import GatherSettings, clamp_distance, gather
-from .gbuffer import GBuffer
-from .sampling import group_sum, stratified_2d
+from .core import passes as P
+from .core.sampling import group_sum, stratified_2d
+from .core.tracer import Tracer
+from .gather.bilateral import deinterleave
+from .gather.summing import GatherSettings, clamp_distance, gather
 from .lights import LightSet
-from .metal_paths import over_metal
+from .lights.direct import direct_light
+from .materials.microfacet import GlossyLobe
 from .methods import METHODS, MethodContext, MethodSettings, place
-from .microfacet import GlossyLobe
-from .tracer import Tracer
+from .paths.gbuffer import GBuffer
+from .paths.over_metal import over_metal
 
 
 class Cancelled(Exception):
@@ -96,7 +96,8 @@ def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
 
 def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None,
            sequence=None) -> RenderResult:
-    """One frame; ``sequence`` (a ``sequence.SequenceState``) carries the method's state from the previous frame."""
+    """One frame; ``sequence`` (a ``sequence.state.SequenceState``) carries the method's state from the previous
+    frame."""
     cam = scene.camera
     w, h = cam.width, cam.height
     result = RenderResult(passes={})
@@ -125,8 +126,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             t0 = time.perf_counter()
             placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
             context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces)
-            vpls, result.info = (place if sequence is None else sequence.place)(settings.method, context,
-                                                                                settings.placement)
+            if sequence is None:
+                vpls, result.info = place(settings.method, context, settings.placement)
+            else:
+                vpls, result.info = sequence.place(METHODS[settings.method], context, settings.placement)
             guard("place", {"VPL intensity": vpls.intensity})
             if sampled is None:
                 d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
@@ -156,7 +159,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         def summed(points, glossy, pixel, rng):
             """The VPLs' light at camera points (white Lambertian, or the metallic lobe ``glossy``): the interleaved
             gather, each point with its pixel's VPL subset, plus the light that comes over metal
-            (``metal_paths``); a metallic lobe sees VPLs only over its paths."""
+            (``paths.over_metal``); a metallic lobe sees VPLs only over its paths."""
             xy = np.stack([pixel % w, pixel // w], 1)
 
             def vpl_light(ends, owner):

@@ -6,16 +6,16 @@ from __future__ import annotations
 import numpy as np
 
 import vpl_addon.methods
-from vpl_addon import passes as P
-from vpl_addon.camera import Camera, view_window
-from vpl_addon.gather import GatherSettings
+from vpl_addon.core import passes as P
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import PointLight
 from vpl_addon.methods import MethodSettings
 from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.vbnl import VBNLSettings
+from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
 from vpl_addon.render import RenderSettings
-from vpl_addon.scene import Materials, Scene
-from vpl_addon.virtual_light_sampling import SamplingSettings
 
 # every method that exists, so a method that lands later is stressed without touching this suite
 METHODS = ("none", *vpl_addon.methods.METHODS)

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 
 from stress_scenes import budget, METHODS, WHITE, box, room, small_settings, tally
-from vpl_addon.gather import GatherSettings, gather
-from vpl_addon.gbuffer import GBuffer
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.core.tracer import Tracer
+from vpl_addon.gather.summing import GatherSettings, gather
+from vpl_addon.gather.virtual_lights import STANDARD, VirtualLights
 from vpl_addon.lights import LightSet
 from vpl_addon.methods import MethodContext, place
+from vpl_addon.paths.gbuffer import GBuffer
 from vpl_addon.render import render
-from vpl_addon.scene import Materials, Scene
-from vpl_addon.tracer import Tracer
-from vpl_addon.virtual_lights import STANDARD, VirtualLights
 
 
 @pytest.mark.parametrize("method", METHODS[1:])

@@ -206,7 +206,7 @@ def test_hostile_blender_scene_renders_or_fails_in_one_line(hazard, hostile_blen
     """Through the real extraction and CLI: finite, non-negative passes (and a warning naming the object when the
     hazard made it skip something), or one error line naming the object; never a traceback, never a file left
     behind by a failed run."""
-    from vpl_addon.exr import read_passes
+    from vpl_addon.core.exr import read_passes
     change, error_words, warning_words = HAZARDS[hazard]
     out = tmp_path / "out.exr"
     code, _, stderr = run_cli("render", hostile_blend(change), "-o", out, "--samples", "2", "--light-samples", "1",

@@ -6,10 +6,10 @@ import pytest
 
 from stress_scenes import (budget, ALBEDO_ONE, BLACK, METHODS, WHITE, box, look_at, room, small_settings, tally,
                            with_triangles)
-from vpl_addon.camera import Camera, view_window
-from vpl_addon.gather import GatherSettings
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
-from vpl_addon.scene import Materials, Scene
 from vpl_addon.render import render
 
 
@@ -208,7 +208,7 @@ def test_half_metal_room_stays_below_its_energy_bound():
 def test_scale_and_position_do_not_change_the_image(method, variant):
     """The same room at 1e-4 or 1e4 scale (light power scaled to keep the radiance) or 1e5 m away renders like the
     room at unit scale near the origin: their difference is below 1.5x the method's own seed-to-seed difference."""
-    from vpl_addon.metrics import errors
+    from vpl_addon.evaluation.metrics import errors
 
     def image(scene, seed):
         settings = small_settings(method, seed=seed, placement=budget(256), gather=GatherSettings())

@@ -8,8 +8,8 @@ import pytest
 
 import vpl_addon.render as render_module
 from stress_scenes import room, small_settings
+from vpl_addon.core.passes import BadOutput, check
 from vpl_addon.methods import METHODS
-from vpl_addon.passes import BadOutput, check
 from vpl_addon.render import render
 
 

@@ -9,11 +9,11 @@ from hypothesis import HealthCheck, Phase, given, settings
 from hypothesis import strategies as st
 
 from stress_scenes import budget, METHODS, box, look_at, room, small_settings, tally
-from vpl_addon.gather import GatherSettings
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.evaluation.metrics import errors
+from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import PointLight
-from vpl_addon.metrics import errors
 from vpl_addon.render import render
-from vpl_addon.scene import Materials, Scene
 
 VPL_METHODS = METHODS[1:]
 # few derandomized examples and no shrinking (a failing render-heavy example took ten minutes to shrink)

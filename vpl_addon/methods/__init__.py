@@ -1,4 +1,6 @@
-"""Methods that place virtual lights: one module per paper, one interface.
+"""Methods that place virtual lights: one subpackage per paper holding the modules only it uses, one interface.
+May import every layer below (a method's sequence hooks use ``sequence``), never another method, ``render``
+or Blender's side.
 
 ``place(context, settings) -> (VirtualLights, info)`` where ``context`` carries the scene, tracer, lights,
 bounce limit and random generator, and ``info`` is a dict of figures worth reporting (paths traced, shares...).

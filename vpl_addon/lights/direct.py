@@ -1,0 +1,124 @@
+"""Direct lighting by next-event estimation: Cycles' ``Diffuse Direct`` and ``Glossy Direct`` passes.
+
+For each shading point, ``samples`` light samples: a light chosen in proportion to its power (``LightSet``), a point
+or direction on it, one shadow ray. The result is the outgoing radiance of a white Lambertian surface,
+(1/pi) * integral L_i cos(theta) d omega, which is how Cycles defines the pass (light reflected by the diffuse
+BSDF, divided by the diffuse colour).
+
+When the points are the samples of pixels (the G-buffer), the caller can hand in the light-sample numbers: those of
+all samples of a pixel then form one scrambled Sobol net (``sampling.stratified_2d``) dealt out in random order,
+so a pixel's shadow rays cover the light evenly instead of clumping as independent numbers do.
+
+The metallic lobe's light combines the light samples with as many samples of the lobe itself by multiple
+importance sampling (Veach and Guibas 1995, the power heuristic), per light: a sharp lobe inside a light's solid
+angle is found by its own samples, where light samples alone gave f cos / pdf of 10^4 and more (single samples
+that the filter spread into squares). Lights that cannot evaluate their pdf for a given direction (``Light.mis``
+None: points, spots, suns, emissive meshes) keep light samples alone.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.sampling import dot, group_sum, power_heuristic, stratified_2d
+from ..materials.microfacet import GlossyLobe
+
+RAYS_PER_BATCH = 1 << 20
+
+
+def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generator) -> np.ndarray:
+    """(K,3) direct diffuse radiance of a white Lambertian surface at each point (``direct_light`` without the
+    glossy lobe)."""
+    return direct_light(surface, lights, tracer, samples, rng)[0]
+
+
+def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator,
+                 numbers: tuple[np.ndarray, ...] | None = None, glossy: GlossyLobe | None = None):
+    """(diffuse (K,3), glossy (K,3)): at each point of a ``Surface``, averaged over ``samples`` light samples, the
+    direct radiance a white Lambertian surface reflects and, if ``glossy`` is given, the radiance its metallic lobe
+    reflects toward the viewer (zero otherwise).
+
+    Each light sample is one sample of a local light (chosen by power) plus, if the world emits, one
+    cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples) or None: the uniform
+    numbers for the local and the world samples, instead of independent ones."""
+    k = len(surface)
+    out, shine = np.zeros((k, 3)), np.zeros((k, 3))
+    if k == 0 or len(lights) == 0 or samples <= 0:
+        return out, shine
+    p = surface.position
+    ng = surface.geometric_normal
+    ns = surface.shading_normal
+    step = max(1, RAYS_PER_BATCH // samples)
+    for lo in range(0, k, step):
+        hi = min(k, lo + step)
+        owner = np.repeat(np.arange(hi - lo), samples)  # the point of each light sample, within the batch
+        # shadow rays leave through the side the geometric normal faces (``_accumulate`` keeps only those): one
+        # offset origin per point
+        origin = tracer.offset_origin(p[lo:hi], ng[lo:hi])
+        p_at, ng_at, ns_at = (np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns))  # each sample's point
+        at = (lo, hi, owner, origin, p_at, ng_at, ns_at)
+        given = numbers or (None,) * 4
+        u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
+        if lights.local:
+            # stratify the light choice over the samples of one point
+            strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
+            wi, dist, weight, target_n, which = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
+            _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
+                        lambda rows: lights.local_pdf(p_at[rows], ns_at[rows], wi[rows], which[rows]))
+        if lights.world is not None:
+            wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
+            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
+                        lambda rows: lights.world.mis(p_at[rows], ns_at[rows], wi[rows])[2])
+        if glossy is not None:
+            _lobe_samples(shine, at, lights, tracer, glossy, rng)
+    return out / samples, shine / samples
+
+
+def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf):
+    """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
+    weight * (f cos of the glossy lobe) * V * the MIS weight against the lobe's pdf (``light_pdf(rows)``: the
+    light samples' own pdf, NaN for no MIS). ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
+    rays' origin at each point, and the position, geometric and shading normal of each sample's point)."""
+    lo, hi, owner, origin, p, ng, ns = at
+    cos = dot(ns, wi)
+    total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
+    sel = np.nonzero((cos > 0.0) & (dot(ng, wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
+    if len(sel) == 0:
+        return
+    on_geometry = None if target_n is None else target_n[sel]
+    sel = sel[tracer.visible(p[sel], ng[sel], wi[sel], dist[sel], on_geometry, origin[owner[sel]])]
+    out[lo:hi] += group_sum(owner[sel], weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
+    if glossy is not None:
+        point = owner[sel] + lo
+        lit = np.nonzero(glossy.weight[point].max(axis=1) > 0.0)[0]
+        value, p_lobe = glossy.evaluate(wi[sel[lit]], point[lit])
+        value *= power_heuristic(light_pdf(sel[lit]), p_lobe)[:, None]
+        shine[lo:hi] += group_sum(owner[sel[lit]], weight[sel[lit]] * value, hi - lo)
+
+
+def _lobe_samples(shine, at, lights, tracer, glossy, rng):
+    """shine[lo:hi] += MIS's other half: one direction from the metallic lobe per light sample, and the light of
+    every light the ray finds (``Light.mis``) that is not hidden, times f cos / pdf and the MIS weight against that
+    light's own pdf. The directions are kept to those the light samples can take (above the shading and the
+    geometric surface)."""
+    lo, hi, owner, origin, p, ng, ns = at
+    rows = np.nonzero(glossy.weight[owner + lo].max(axis=1) > 0.0)[0]
+    u1, u2 = (u.ravel()[rows] for u in stratified_2d(hi - lo, len(owner) // (hi - lo), rng))  # a net per point
+    w, f_cos_pdf, p_lobe = glossy.sample(u1, u2, owner[rows] + lo)
+    keep = np.nonzero((p_lobe > 0.0) & (dot(ns[rows], w) > 0.0) & (dot(ng[rows], w) > 0.0))[0]
+    rows, w, f_cos_pdf, p_lobe = rows[keep], w[keep], f_cos_pdf[keep], p_lobe[keep]
+    if len(rows) == 0:
+        return
+    chosen = lights.selection(p[rows])
+    found = [(chosen[:, i], light) for i, light in enumerate(lights.local)]
+    if lights.world is not None:
+        found.append((1.0, lights.world))
+    for probability, light in found:
+        answer = light.mis(p[rows], ns[rows], w)
+        if answer is None:
+            continue
+        dist, radiance, pdf = answer
+        pdf = probability * pdf
+        hit = np.nonzero((pdf > 0.0) & (radiance.max(axis=1) > 0.0))[0]
+        hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]
+        light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]
+        shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)

@@ -1,0 +1,73 @@
+"""Emissive meshes as one light: radiance = Emission Color x Strength, emitted from both sides of every
+triangle whose material emits."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.color import LUMINANCE
+from ..core.sampling import cosine_hemisphere, dot, sample_cdf, triangle_barycentrics
+from .light import Light
+
+
+class EmissiveTriangles(Light):
+    """All triangles whose material emits, as one light: triangle chosen by power, point uniform on it."""
+
+    name = "emissive triangles"
+
+    def __init__(self, triangles, normals, radiance):
+        self.triangles = np.asarray(triangles, np.float64)
+        self.normals = np.asarray(normals, np.float64)
+        self.radiance = np.asarray(radiance, np.float64)
+        e1 = self.triangles[:, 1] - self.triangles[:, 0]
+        e2 = self.triangles[:, 2] - self.triangles[:, 0]
+        self.areas = 0.5 * np.linalg.norm(np.cross(e1, e2), axis=1)
+        weight = self.areas * (self.radiance @ LUMINANCE)
+        self.total = float(weight.sum())
+        self.cdf = np.cumsum(weight) / self.total if self.total > 0 else np.ones(len(weight))
+        self.prob = weight / self.total if self.total > 0 else np.zeros(len(weight))
+
+    @staticmethod
+    def from_scene(scene) -> "EmissiveTriangles | None":
+        emission = scene.materials.emission[scene.material]
+        sel = emission.max(axis=1) > 0.0
+        if not sel.any():
+            return None
+        return EmissiveTriangles(scene.triangles[sel], scene.geometric_normals[sel], emission[sel])
+
+    def flux_estimate(self, scene_radius):
+        return 2.0 * np.pi * self.total  # both sides
+
+    def bounds(self):
+        pts = self.triangles.reshape(-1, 3)
+        lo, hi = pts.min(axis=0), pts.max(axis=0)
+        return 0.5 * (lo + hi), 0.5 * float(np.linalg.norm(hi - lo))
+
+    def _sample_incident(self, p, n, u1, u2):
+        idx = sample_cdf(self.cdf, u1)
+        # reuse u1 within the chosen CDF bin for the point: keeps one random pair per sample
+        lo = np.where(idx > 0, self.cdf[np.maximum(idx - 1, 0)], 0.0)
+        w = np.maximum(self.cdf[idx] - lo, 1e-300)
+        u1r = np.clip((u1 - lo) / w, 0.0, 1.0 - 1e-12)
+        b1, b2 = triangle_barycentrics(u1r, u2)
+        tri = self.triangles[idx]
+        q = tri[:, 0] + b1[:, None] * (tri[:, 1] - tri[:, 0]) + b2[:, None] * (tri[:, 2] - tri[:, 0])
+        to_l = q - p
+        d2 = dot(to_l, to_l)
+        dist = np.sqrt(d2)
+        wi = to_l / np.maximum(dist, 1e-300)[:, None]
+        cos_l = np.abs(dot(wi, self.normals[idx]))
+        pdf_area = self.prob[idx] / np.maximum(self.areas[idx], 1e-300)
+        factor = cos_l / np.maximum(d2 * pdf_area, 1e-300)
+        return wi, dist, factor[:, None] * self.radiance[idx], self.normals[idx]
+
+    def emit(self, count, rng, center, radius):
+        idx = sample_cdf(self.cdf, rng.random(count))
+        b1, b2 = triangle_barycentrics(rng.random(count), rng.random(count))
+        tri = self.triangles[idx]
+        origins = tri[:, 0] + b1[:, None] * (tri[:, 1] - tri[:, 0]) + b2[:, None] * (tri[:, 2] - tri[:, 0])
+        side = np.where(rng.random(count) < 0.5, 1.0, -1.0)[:, None] * self.normals[idx]
+        dirs, _ = cosine_hemisphere(rng.random(count), rng.random(count), side)
+        # radiance x pi (cosine lobe) x area / p(triangle), times 2 for the side chosen with probability 1/2
+        power = self.radiance[idx] * (2.0 * np.pi * self.areas[idx] / np.maximum(self.prob[idx], 1e-300))[:, None]
+        origins = origins + side * (1e-7 * max(radius, 1e-30))
+        return origins, dirs, power

@@ -1,0 +1,67 @@
+"""The base of the light types: what every light tells the light set and the samplers (``Light``), and the
+disc distant lights emit their paths from."""
+from __future__ import annotations
+
+import numpy as np
+
+from ..core.sampling import concentric_disk, dot, orthonormal_basis
+
+
+def disc_facing(rng, dirs, center, radius):
+    """Origins on discs of the given radius perpendicular to each travel direction, upstream of the scene."""
+    x, y = concentric_disk(rng.random(len(dirs)), rng.random(len(dirs)))
+    t, b = orthonormal_basis(dirs)
+    return center + radius * (x[:, None] * t + y[:, None] * b) - 2.0 * radius * dirs
+
+
+class Light:
+    """Base of the light types: a name, total power for light selection and incident sampling."""
+
+    name: str
+
+    @property
+    def is_active(self) -> bool:
+        """Emits and is well defined: a light with NaN or infinite numbers (a broken transform), or without a
+        direction, is inert rather than a source of NaN."""
+        flux = self.flux_estimate(1.0)
+        numbers = [v for v in vars(self).values() if isinstance(v, (float, np.ndarray))]
+        directions = [getattr(self, k) for k in ("direction", "normal") if isinstance(getattr(self, k, None),
+                                                                                  np.ndarray)]
+        return bool(np.isfinite(flux) and flux > 0.0 and all(np.isfinite(v).all() for v in numbers)
+                    and all(np.linalg.norm(d) > 0.0 for d in directions))
+
+    def flux_estimate(self, scene_radius: float) -> float:
+        """Approximate emitted power (luminance-weighted), used only to choose between lights."""
+        raise NotImplementedError
+
+    def bounds(self) -> tuple[np.ndarray, float]:
+        """Centre and radius of a sphere around the emitter (local lights only)."""
+        raise NotImplementedError
+
+    def importance(self, p: np.ndarray, scene_radius: float) -> np.ndarray:
+        """(N,) rough irradiance the light brings to points p, ignoring shadows and orientation: power over
+        4 pi max(d^2, r^2). Only used to choose which light to sample at each point."""
+        center, r = self.bounds()
+        d2 = dot(p - center, p - center)
+        return np.full(len(p), self.flux_estimate(scene_radius)) / (4.0 * np.pi * np.maximum(d2, r * r + 1e-30))
+
+    def sample_incident(self, p, n, u1, u2, owner=None):
+        """Light samples toward shading points: ``owner`` (N,) gives the point of ``p`` (P,3) each sample (u1[i],
+        u2[i]) belongs to (None: sample i is at point i). A light whose sampling has a per-point part (the
+        spherical rectangle) computes it once per point."""
+        if owner is not None:
+            p, n = p[owner], n[owner]
+        return self._sample_incident(p, n, u1, u2)
+
+    def _sample_incident(self, p, n, u1, u2):
+        raise NotImplementedError
+
+    def mis(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
+        """What a ray from points p (shading normals n) along unit directions w finds of the light, for multiple
+        importance sampling of a glossy lobe against ``sample_incident``: (distance (P,), emitted radiance (P,3),
+        the solid-angle pdf of ``sample_incident`` choosing w (P,)), radiance and pdf 0 where the ray misses it.
+        None for a light that cannot say: its samples keep their full weight and lobe samples ignore it."""
+        return None
+
+    def emit(self, count, rng, center, radius):
+        raise NotImplementedError

@@ -1,0 +1,52 @@
+"""The sun in Cycles' units: strength S [W/m^2] is the irradiance on a surface facing it, spread over a disc of
+the given angle."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.color import LUMINANCE
+from ..core.sampling import normalize, uniform_cone
+from .light import Light, disc_facing
+
+
+@dataclass
+class SunLight(Light):
+    name: str
+    direction: np.ndarray  # direction the light travels (the sun object's -Z)
+    strength: np.ndarray  # RGB W/m^2
+    angle: float = 0.0  # angular diameter of the sun disc
+
+    def __post_init__(self):
+        self.direction = normalize(np.asarray(self.direction, np.float64))
+        self.strength = np.maximum(np.nan_to_num(np.asarray(self.strength, np.float64), nan=0.0, posinf=0.0), 0.0)
+        self.angle = float(np.clip(np.nan_to_num(self.angle), 0.0, np.pi))
+
+    def flux_estimate(self, scene_radius):
+        return float(self.strength @ LUMINANCE) * np.pi * scene_radius ** 2
+
+    def importance(self, p, scene_radius):
+        return np.full(len(p), float(self.strength @ LUMINANCE))
+
+    def _sample_incident(self, p, n, u1, u2):
+        count = len(p)
+        axis = np.broadcast_to(-self.direction, (count, 3))
+        half = 0.5 * self.angle
+        if half <= 1e-6:
+            return axis.copy(), np.full(count, np.inf), np.broadcast_to(self.strength, (count, 3)).copy()
+        one_minus_cos = 2.0 * np.sin(0.5 * half) ** 2
+        wi = uniform_cone(u1, u2, axis, 1.0 - one_minus_cos)
+        # radiance S / (pi sin^2 half) over the cone gives irradiance S at normal incidence
+        scale = 2.0 * one_minus_cos / np.sin(half) ** 2
+        return wi, np.full(count, np.inf), np.broadcast_to(self.strength * scale, (count, 3)).copy()
+
+    def emit(self, count, rng, center, radius):
+        half = 0.5 * self.angle
+        axis = np.broadcast_to(self.direction, (count, 3))
+        if half <= 1e-6:
+            dirs = axis.copy()
+        else:
+            dirs = uniform_cone(rng.random(count), rng.random(count), axis, np.cos(half))
+        origins = disc_facing(rng, dirs, center, radius)
+        return origins, dirs, np.broadcast_to(self.strength * np.pi * radius * radius, (count, 3)).copy()

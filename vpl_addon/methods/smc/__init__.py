@@ -1,0 +1,263 @@
+"""Sequential Monte Carlo Instant Radiosity (Hedman, Karras, Lehtinen, IEEE TVCG 2016): a VPL set kept from frame
+to frame, of which at most M_max = 16 VPLs move per frame, driven toward VPLs of equal intensity I(y) = L(y) / p(y)
+(eq. 4, 6), i.e. placed in proportion to their radiosity on the surfaces the camera sees indirectly.
+
+One frame is Algorithm 1 (sec. 3.2):
+  3. X: points the camera sees directly (``paths.camera_points.CameraPoints``).
+  4. INVALID: VPLs whose indirect visibility cannot be verified by mail-boxing (``indirect_visibility``, V = 16,
+     two iterations); also VPLs on objects that moved.
+  5-6. Candidates: rays in cosine-weighted random directions from X hit 16 I points, resampled 16:1 without
+     replacement with weights 1 / p (kNN density among the hits) to an approximately uniform area density.
+  7. Their radiosity: 16 paths with next-event estimation seeded per VPL (``vpl_radiosity``).
+  8. Their density among the current VPLs with k = 1 (``knn_density``, eq. 7).
+  9-12. M_min = min(M_max, M_strong) (eq. 9), M_strong the candidates stronger than the 95th percentile of the
+     current VPLs' intensities; the weakest VPLs join INVALID until it holds M_min.
+  13-17. At most M_max of INVALID are removed; the strongest candidates fill the budget I.
+  18-19. Radiosities (only when the lights, geometry or shading changed: per-VPL seeds make the estimate of an
+     unchanged VPL in an unchanged scene the same) and densities with k = max(1, floor(sqrt(I) / 32)) (eq. 8).
+The state starts empty; the first frame runs ``warmup`` (100) iterations of the algorithm before it renders, so a
+chunk of a sequence can start cold anywhere. A VPL's intensity for the gather is Lo(y) / (I p(y)) = Lo(y) pi r_k^2
+/ k: its outgoing radiance times the area it stands for.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial import cKDTree
+
+from ...core.color import luminance
+from ...gather.virtual_lights import STANDARD, VirtualLights
+from ...materials.surface import Surface, diffuse_bounce
+from ...paths.camera_points import CameraPoints
+from .indirect_visibility import validate
+from .knn_density import knn_density, knn_radius, rendering_k
+from .vpl_radiosity import estimate_radiosity
+
+
+SELECTION, RENDERING = 0, 1  # the two random streams of a VPL's radiosity paths
+# A VPL keeps its slot in the set while it lives (a new one takes the slot of the one it replaces), so the sequence
+# keeps the gather's order of the slots from frame to frame: each VPL stays in its interleaving subset.
+STABLE_LIGHTS = True
+
+
+@dataclass
+class SMCSettings:
+    replacements: int = 16  # M_max: VPLs allowed to move per frame
+    candidate_ratio: int = 16  # intersection points per candidate (16 I points -> I candidates)
+    visibility_rays: int = 16  # V: rays per directly visible point toward invalid VPLs
+    visibility_iterations: int = 2
+    radiosity_samples: int = 16  # paths with next-event estimation per VPL radiosity
+    percentile: float = 95.0  # eq. 9: candidates stronger than this percentile of the VPLs count as M_strong
+    warmup: int = 100  # iterations of the algorithm before the first frame of a cold start
+    camera_points: int = 1024  # |X|: directly visible points per frame (the paper uses every pixel)
+    resampling_k: int = 8  # neighbours for the density of the intersection points (the paper does not say)
+    density_k: int = 0  # k of the densities for rendering; 0: eq. 8, max(1, floor(sqrt(I) / 32))
+    # The area a VPL stands for in the gather, 1 / (I p(y)). "knn": eq. 7 with the k above, as in the paper.
+    # "voronoi" (not in the paper): each hit of this frame's candidate rays stands for the area pi r^2 / k of its kNN
+    # density among the (unselected, so nearly Poisson) hits and gives it to its nearest VPL, a running mean over
+    # ``area_frames`` frames. The replacement heuristic keeps VPLs whose neighbours are far, so eq. 7 overestimates
+    # their area: the Cornell box comes out a third too bright with "knn" (bench/README.md)
+    area: str = "voronoi"
+    area_frames: int = 16
+    # k of the hits' kNN areas: k = 1 is unbiased for uniformly random points (E[pi r_1^2] = 1 / density) and the
+    # least hurt by corners and edges; its noise averages out over the ~16 hits per VPL and ``area_frames``
+    area_k: int = 1
+
+    def __post_init__(self):
+        for name in ("replacements", "candidate_ratio", "radiosity_samples", "camera_points", "resampling_k",
+                     "area_k", "area_frames"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"smc {name.replace('_', ' ')} must be at least 1 (got {getattr(self, name)})")
+        if self.warmup < 0 or self.visibility_rays < 0 or self.visibility_iterations < 0:
+            raise ValueError("smc warm-up, visibility rays and iterations must not be negative")
+        if self.area not in ("voronoi", "knn"):
+            raise ValueError(f"smc area must be 'voronoi' or 'knn' (got {self.area!r})")
+        if not 0.0 <= self.percentile <= 100.0:
+            raise ValueError(f"smc percentile must be between 0 and 100 (got {self.percentile})")
+
+
+class SMCState:
+    """The VPL set Y carried from frame to frame."""
+
+    def __init__(self):
+        self.surface: Surface | None = None  # the VPLs as surface points (position, normals, albedo, ...)
+        self.radiosity = np.zeros((0, 3))  # Lo(y) per VPL
+        self.seed = np.zeros(0, np.int64)  # per-VPL seed of its radiosity paths
+        self.mailbox = (np.zeros((0, 3)), np.zeros((0, 3)))  # associated point and its normal
+        self.strength = np.zeros(0)  # scalar intensity lum(L) / p used for ranking
+        self.density = np.zeros(0)  # p(y) for rendering (eq. 7 with the k of eq. 8)
+        self.area = np.zeros(0)  # "voronoi" area per VPL (running mean) and the frames it averages
+        self.area_count = np.zeros(0, np.int64)
+        self.next_seed = 0
+        self.iterations = 0
+        self.stale_radiosity = False  # lights, geometry or shading changed since the radiosities were estimated
+
+    def __len__(self):
+        return 0 if self.surface is None else len(self.surface)
+
+    def keep(self, rows) -> None:
+        self.surface = self.surface.take(rows)
+        self.radiosity, self.seed, self.strength = self.radiosity[rows], self.seed[rows], self.strength[rows]
+        self.mailbox = (self.mailbox[0][rows], self.mailbox[1][rows])
+        self.area, self.area_count = self.area[rows], self.area_count[rows]
+
+
+def _inside_boxes(points, boxes, margin):
+    inside = np.zeros(len(points), bool)
+    for lo, hi in boxes:
+        inside |= ((points >= lo - margin) & (points <= hi + margin)).all(axis=1)
+    return inside
+
+
+def _candidates(context, s: SMCSettings, points: Surface, count: int):
+    """Lines 5-6: hits of random rays from the directly visible points, resampled to about uniform area density:
+    (candidate surface, index of the point each came from, (every hit's position, the area it stands for))."""
+    rng = context.rng
+    origins = rng.integers(0, len(points), s.candidate_ratio * count)
+    hits, source, _, _ = diffuse_bounce(context.scene, context.tracer, points.take(origins), rng)
+    if len(hits) == 0:
+        return hits, source, (np.zeros((0, 3)), np.zeros(0))
+    k = min(s.resampling_k, max(len(hits) - 1, 1))
+    r = knn_radius(hits.position, hits.position, k, exclude_self=True)
+    weight = np.where(np.isfinite(r), r * r, 0.0)
+    k_area = min(s.area_k, max(len(hits) - 1, 1))
+    if k_area != k:
+        r = knn_radius(hits.position, hits.position, k_area, exclude_self=True)
+    area = np.where(np.isfinite(r), np.pi * r * r / k_area, 0.0)  # 1 / (M p) per hit: the area it stands for
+    if not (weight.sum() > 0):
+        weight = np.ones(len(hits))
+    take = min(count, int((weight > 0).sum()))
+    chosen = rng.choice(len(hits), size=take, replace=False, p=weight / weight.sum())
+    return hits.take(chosen), origins[source[chosen]], (hits.position, area)
+
+
+def iterate(state: SMCState, context, settings, motion=None) -> None:
+    """One pass of Algorithm 1 (lines 3-19) over ``state``."""
+    s: SMCSettings = settings.smc
+    budget = max(1, int(settings.vpls))
+    scene, tracer, lights, rng = context.scene, context.tracer, context.lights, context.rng
+    bounces = max(1, context.max_bounces)
+    extent = float(np.linalg.norm(np.subtract(*scene.bounds)))
+    floor = 1e-6 * max(extent, 1e-12)
+    points = CameraPoints.sample(scene, tracer, s.camera_points, rng).surface  # X
+    if len(points) == 0:
+        return
+
+    # INVALID: not verifiably indirectly visible, or on an object that moved
+    if len(state):
+        valid, box_p, box_n = validate(scene.camera, tracer, state.surface.position, state.surface.shading_normal,
+                                       *state.mailbox, points.position, points.geometric_normal, rng,
+                                       s.visibility_rays, s.visibility_iterations)
+        if motion is not None and motion.boxes:
+            valid &= ~_inside_boxes(state.surface.position, motion.boxes, 1e-4 * max(extent, 1e-12))
+        state.mailbox = (box_p, box_n)
+    else:
+        valid = np.zeros(0, bool)
+
+    # candidates, their radiosities and their k = 1 densities among the current VPLs
+    cand, source, covered = _candidates(context, s, points, budget)
+    seeds = state.next_seed + np.arange(len(cand), dtype=np.int64)
+    radiosity = estimate_radiosity(scene, tracer, lights, cand, seeds, s.radiosity_samples, bounces, SELECTION)
+    if len(state):
+        density = knn_density(cand.position, state.surface.position, 1, budget, floor=floor)
+    else:
+        density = knn_density(cand.position, cand.position, 1, budget, exclude_self=True, floor=floor)
+    strength = luminance(radiosity) / np.where(np.isfinite(density) & (density > 0), density, np.inf)
+
+    # eq. 9: how many VPLs to move; the weakest valid ones join the invalid ones; at most M_max leave
+    invalid = np.nonzero(~valid)[0]
+    invalid = invalid[np.argsort(state.strength[invalid], kind="stable")]
+    if len(state):
+        threshold = np.percentile(state.strength, s.percentile)
+        m_min = min(s.replacements, int((strength > threshold).sum()))
+    else:
+        m_min = 0
+    if len(invalid) < m_min:
+        weakest = np.nonzero(valid)[0]
+        weakest = weakest[np.argsort(state.strength[weakest], kind="stable")]
+        invalid = np.concatenate([invalid, weakest[:m_min - len(invalid)]])
+    before, leave = len(state), np.sort(invalid[:s.replacements])
+    if len(state):
+        state.keep(np.setdiff1d(np.arange(len(state)), leave))
+
+    # the strongest candidates fill the budget
+    room = budget - len(state)
+    if room > 0 and len(cand):
+        best = np.argsort(-strength, kind="stable")[:room]
+        new = cand.take(best)
+        state.surface = new if state.surface is None else Surface.concat([state.surface, new])
+        # the radiosity that lights the image comes from the VPL's other stream: the one it was chosen by is
+        # biased upward by the choice (a candidate wins on a lucky estimate); estimated below if all are stale
+        state.radiosity = np.concatenate([state.radiosity, np.zeros((len(best), 3)) if state.stale_radiosity else
+                                          estimate_radiosity(scene, tracer, lights, new, seeds[best],
+                                                             s.radiosity_samples, bounces, RENDERING)])
+        state.seed = np.concatenate([state.seed, seeds[best]])
+        state.mailbox = (np.concatenate([state.mailbox[0], points.position[source[best]]]),
+                         np.concatenate([state.mailbox[1], points.geometric_normal[source[best]]]))
+        state.strength = np.concatenate([state.strength, strength[best]])
+        state.area = np.concatenate([state.area, np.zeros(len(best))])
+        state.area_count = np.concatenate([state.area_count, np.zeros(len(best), np.int64)])
+        if len(leave) and len(best) >= len(leave):  # new VPLs take the slots of those they replace
+            dest = np.concatenate([np.setdiff1d(np.arange(before), leave), leave,
+                                   before + np.arange(len(best) - len(leave))])
+            state.keep(np.argsort(dest))
+    state.next_seed += len(cand)
+
+    # lines 18-19: radiosities where the scene changed, densities for rendering
+    if state.stale_radiosity and len(state):
+        state.radiosity = estimate_radiosity(scene, tracer, lights, state.surface, state.seed,
+                                             s.radiosity_samples, bounces, RENDERING)
+    state.stale_radiosity = False
+    if len(state):
+        k = s.density_k or rendering_k(budget)
+        r = knn_radius(state.surface.position, state.surface.position, k, exclude_self=True)
+        r = np.where(np.isfinite(r), np.maximum(r, floor), max(extent, 1e-12))  # too few VPLs: the scene's size
+        p = k / (budget * np.pi * r * r)
+        state.strength = luminance(state.radiosity) / p
+        state.density = p
+        if s.area == "voronoi" and len(covered[0]):
+            _, nearest = cKDTree(state.surface.position).query(covered[0])
+            share = np.bincount(nearest, weights=covered[1], minlength=len(state))
+            state.area_count += 1
+            state.area += (share - state.area) / np.minimum(state.area_count, s.area_frames)
+    state.iterations += 1
+
+
+def start(context, settings) -> SMCState:
+    return SMCState()
+
+
+def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, dict]:
+    """The frame's VPLs: after a cold start ``warmup`` iterations first, then this frame's iteration."""
+    rays0 = context.tracer.rays_traced
+    if state.iterations and motion is not None and motion.static():  # nothing moved: the same VPLs, no rays
+        lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
+        return lights, {"vpls": len(lights), "replaced": 0, "light_paths": 0, "iterations": state.iterations,
+                        "sampling_rays": 0, "reused": True}
+    if motion is None or motion.first or motion.lights_changed or motion.geometry_changed or motion.shading_changed:
+        state.stale_radiosity = True
+    moved = len(state)
+    for _ in range(settings.smc.warmup if state.iterations == 0 else 0):
+        iterate(state, context, settings, motion)
+    before = set(state.seed.tolist())
+    iterate(state, context, settings, motion)
+    replaced = len(set(state.seed.tolist()) - before)
+    lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
+    return lights, {"vpls": len(lights), "replaced": replaced if moved else len(lights), "light_paths": 0,
+                    "iterations": state.iterations, "sampling_rays": context.tracer.rays_traced - rays0}
+
+
+def as_virtual_lights(state: SMCState, budget: int, settings_area: str = "voronoi") -> VirtualLights:
+    if not len(state):
+        return VirtualLights.empty()
+    area = state.area if settings_area == "voronoi" else 1.0 / (max(1, int(budget)) * state.density)
+    surf = state.surface
+    return VirtualLights(surf.position.copy(), surf.shading_normal.copy(), state.radiosity * area[:, None],
+                         np.ones(len(state), np.int32), np.full(len(state), STANDARD, np.int8), state.seed.copy())
+
+
+def place(context, settings):
+    """A single frame: a cold start with its warm-up."""
+    from ...sequence.motion import Motion
+    return advance(start(context, settings), context, settings, Motion(first=True))

@@ -1,0 +1,206 @@
+"""Virtual Blue Noise Lighting (Li, Wang, Lin, Yuksel, HPG 2022): lights placed from the camera, thinned to blue
+noise, lit by photon splitting, and sampled with MIS and camera path extension when rendering.
+
+``place`` follows sec. 3:
+1. candidates (sec. 3.1): M = ``candidates`` x N camera samples, the same number in every pixel; at each primary
+   hit x a BSDF-sampled ray (the metallic lobe with probability Metallic, else cosine) finds y, a point the
+   gather can see: the candidate if y has a diffuse colour; on pure metal the camera path goes on (Fig. 6b), up to
+   ``SPECULAR_EXTENSION`` times. Lights hold diffusely reflected light only: a metallic lobe's light is found by
+   extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
+   and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
+2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
+3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
+   never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
+   an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
+   limit holds for the whole path).
+``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
+
+In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
+(``sequence.path_verification``, Moreau et al.); the lights are placed and the photons split among them again in every
+frame in which something moved (the camera included).
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
+from ...materials.microfacet import GlossyLobe
+from ...materials.surface import Surface, bounce, diffuse_bounce, shade
+from ...paths.gbuffer import GBuffer
+from ...paths.light_paths import trace_paths
+from ...sequence.path_verification import PlacedFromPaths, follow
+from . import virtual_light_sampling
+from .photon_lights import ALPHA, SLAB, PhotonLights
+from .sample_elimination import MODES, eliminate
+
+PATHS_PER_BATCH = 1 << 16
+PIXELS_PER_BATCH = 1 << 14
+POINTS_PER_BATCH = 1 << 18
+DROP = SLAB  # catchment rays start this many radii above the light's tangent plane: its whole slab
+SPECULAR_EXTENSION = 4  # metal surfaces a candidate's camera path may pass before it gives up
+REFINE = 16  # catchment points, as a multiple, for a light that few of its first points found (``catchment``)
+
+
+@dataclass
+class VBNLSettings:
+    candidates: int = 10  # M / N: camera candidates per kept light
+    elimination: str = "adaptive"  # adaptive (eq. 2), uniform (eq. 1) or none (random subset)
+    local: int = 32  # m of eq. 2: the neighbours that estimate a candidate's local density
+    photons: int = 1 << 18  # light paths traced for photon splitting
+    area_samples: int = 32  # surface points per light that measure its catchment
+    sampling: virtual_light_sampling.SamplingSettings = field(
+        default_factory=virtual_light_sampling.SamplingSettings)
+
+    def __post_init__(self):
+        if self.elimination not in MODES:
+            raise ValueError(f"unknown sample elimination {self.elimination!r}; choose one of {', '.join(MODES)}")
+        if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 1:
+            raise ValueError("vbnl needs candidates >= 1, photons >= 0 and samples >= 1")
+
+
+def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
+    """What one BSDF-sampled ray from each point of ``x`` hits: the metallic lobe with probability Metallic,
+    the cosine-weighted diffuse lobe otherwise."""
+    if not scene.materials.glossy:
+        return diffuse_bounce(scene, tracer, x, rng)[0]
+    dirs, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
+    shiny = np.nonzero(rng.random(len(x)) < x.metallic)[0]
+    dirs[shiny] = GlossyLobe.of(x.take(shiny)).sample(rng.random(len(shiny)), rng.random(len(shiny)),
+                                                      np.arange(len(shiny)))[0]
+    return bounce(scene, tracer, x, dirs)[0]
+
+
+def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int = 8):
+    """(positions, normals) of ``count`` points seen from camera-path ends (sec. 3.1), the same number of camera
+    samples in every pixel; normals face the point that found them. Rays that find nothing (an open scene) are
+    made up by further passes over the image, at most ``passes`` in all."""
+    cam = scene.camera
+    pixels = cam.width * cam.height
+    found_p, found_n, found = [], [], 0
+    for _ in range(passes):
+        spp = max(1, math.ceil((count - found) / pixels))
+        step = max(1, PIXELS_PER_BATCH // spp)
+        for lo in range(0, pixels, step):
+            x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
+            y = _bsdf_bounce(scene, tracer, x, rng)
+            for _ in range(SPECULAR_EXTENSION):  # Fig. 6b: on metal, the camera path goes on
+                metal = (y.albedo.max(axis=1) == 0.0) & (y.metallic > 0.0)
+                if not metal.any():
+                    break
+                y = Surface.concat([y.take(np.nonzero(~metal)[0]),
+                                    _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), rng)])
+            y = y.take(np.nonzero(y.albedo.max(axis=1) > 0.0)[0])  # lights hold diffusely reflected light only
+            found_p.append(y.position)
+            found_n.append(y.shading_normal)
+            found += len(y)
+        if found >= count or found == 0:
+            break
+    return np.concatenate(found_p)[:count], np.concatenate(found_n)[:count]
+
+
+def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> np.ndarray:
+    """(N,) A_j, the surface area of each light's share (``photon_lights``): ``per_light`` stratified points of
+    the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray from
+    ``DROP`` r_j above to as far below, each standing for pi r_j^2 / per_light of the disc divided by the cosine
+    between the surface and the disc; the sum of their shares s_j. Exact on flat surfaces; points past an edge
+    find no surface, and points on surfaces without a diffuse colour (pure metal), add nothing. The short drop
+    keeps other surfaces near the light (a shelf above a floor) from hiding the light's own.
+
+    A light on a thin part (a window frame, a chair leg) has its area decided by the few points that land on it:
+    one point of 32, or one at the rim of the disc, gives an area 30 or 1000 times too small or large and, as
+    L_j = I_j / A_j, a light as much too bright or dark (the living room had a light 20000 times the median
+    radiance, a square blotch after the filter). Lights whose share is found by fewer than a quarter of their
+    points are measured again with ``REFINE`` times as many."""
+    area, found = _dropped_shares(lights, np.arange(len(lights)), scene, tracer, per_light, rng)
+    few = np.nonzero(found < per_light / 4)[0]
+    if len(few):
+        area[few] = _dropped_shares(lights, few, scene, tracer, per_light * REFINE, rng)[0]
+    return area
+
+
+def _dropped_shares(lights, which, scene, tracer, per_light, rng):
+    """(area, points that found a share) of the lights ``which``, as ``catchment`` describes."""
+    area, found = np.zeros(len(which)), np.zeros(len(which))
+    if len(which) == 0 or per_light <= 0:
+        return area, found
+    step = max(1, POINTS_PER_BATCH // per_light)
+    for lo in range(0, len(which), step):
+        own = np.arange(lo, min(len(which), lo + step))
+        u, v = stratified_2d(len(own), per_light, rng)
+        dx, dy = concentric_disk(u.ravel(), v.ravel())
+        k = np.repeat(own, per_light)  # position in ``which``
+        j = which[k]
+        t, b = orthonormal_basis(lights.normal[j])
+        r, n = lights.radius[j], lights.normal[j]
+        on_plane = lights.position[j] + (dx * r)[:, None] * t + (dy * r)[:, None] * b
+        start = tracer.offset_origin(on_plane + (DROP * r)[:, None] * n, n)  # above float32 noise far away
+        hits = tracer.intersect(start, -n, tmax=dot(start - on_plane, n) + DROP * r)
+        rows = np.nonzero(hits.hit)[0]
+        y = shade(scene, -n, hits, rows)
+        slope = np.abs(dot(y.geometric_normal, n[rows]))
+        mine = lights.share_of(y.position, y.shading_normal, j[rows]) * (y.albedo.max(axis=1) > 0.0)
+        area += np.bincount(k[rows], mine * np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3), len(which))
+        found += np.bincount(k[rows], mine > 0.0, len(which))
+    return area, found
+
+
+def start(context, settings) -> PlacedFromPaths:
+    return PlacedFromPaths()
+
+
+def advance(state: PlacedFromPaths, context, settings, motion):
+    return state.advance(place, context, settings, motion)
+
+
+def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
+    s = settings.vbnl
+    marks = {"start": time.perf_counter()}
+    position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
+    marks["candidates"] = time.perf_counter()
+    kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
+    lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
+    marks["elimination"] = time.perf_counter()
+    lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
+    bounces = max(context.max_bounces, 1)
+    by_bounce = np.zeros((len(lights), bounces, 3))
+    traced = 0
+    if state is None:
+        while traced < s.photons and len(lights):
+            count = min(PATHS_PER_BATCH, s.photons - traced)
+            photons = trace_paths(context.scene, context.tracer, context.lights, count, context.rng,
+                                  context.max_bounces, first_path=traced)
+            by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
+                                       bounces)
+            traced += count
+        by_bounce /= max(traced, 1)
+    elif len(lights):  # the kept photons (intensities already divided by the number of paths)
+        traced = follow(state.paths, context, motion, 0, settings.path_reuse, settings.path_threshold,
+                        paths=s.photons)
+        photons = state.paths.lights()
+        for first in range(0, len(photons), POINTS_PER_BATCH):
+            part = photons.take(slice(first, first + POINTS_PER_BATCH))
+            by_bounce += lights.spread(part.position, part.normal, part.intensity, part.bounce - 1, bounces)
+    lights.by_bounce = np.cumsum(by_bounce, axis=1)
+    lights.intensity = lights.by_bounce[:, -1]
+    marks["photon_splitting"] = time.perf_counter()
+    stages = list(marks)
+    seconds = {b: marks[b] - marks[a] for a, b in zip(stages, stages[1:])}
+    info = {"vpls": len(lights), "candidates": len(position), "light_paths": traced, "seconds": seconds,
+            "covered_share": float((lights.intensity.sum(axis=1) > 0).mean()) if len(lights) else 0.0}
+    if state is not None:
+        info["light_path_rays"] = state.paths.rays_last_frame
+    return lights, info
+
+
+def gather_samples(settings) -> int:
+    """Sample pairs per pixel the gather takes."""
+    return settings.vbnl.sampling.samples
+
+
+def gather(surface, lights, context, settings, rng, glossy=None):
+    return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
+                                         settings.vbnl.sampling, context.max_bounces, glossy)

@@ -1,0 +1,61 @@
+"""The G-buffer: what the camera sees at several filter-distributed samples per pixel.
+
+For a block of pixels it traces ``spp`` primary rays per pixel (stratified sub-pixel positions warped by the pixel
+filter, see ``core.camera``) and keeps the ``Surface`` of the samples that hit. Passes are formed by ``splat``: the
+mean over a pixel's samples, misses counting as zero, exactly like Cycles' film with a transparent background.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..core.sampling import group_sum, stratified_2d
+from ..materials.surface import Surface, shade
+
+
+@dataclass
+class GBuffer:
+    pixels: np.ndarray  # (P,) flat pixel indices (row-major, row 0 at the top) covered by this block
+    spp: int
+    sample: np.ndarray  # (K,) index of each hit among the P*spp samples (sample // spp = position in pixels)
+    surface: Surface  # (K,) what each hit sees
+
+    @staticmethod
+    def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
+        cam = scene.camera
+        pixels = np.asarray(pixels, np.int64)
+        u, v = stratified_2d(len(pixels), spp, rng)
+        pix = np.repeat(pixels, spp)
+        px = (pix % cam.width) + 0.5 + cam.filter_offsets(u.ravel())
+        py = (pix // cam.width) + 0.5 + cam.filter_offsets(v.ravel())
+        origins, dirs, near = cam.rays(px, py)
+        origins = origins + dirs * near[:, None]
+        hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
+        sample = np.nonzero(hits.hit)[0]
+        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample))
+
+    def __len__(self):
+        return len(self.sample)
+
+    @property
+    def pixel_of_hit(self) -> np.ndarray:
+        """(K,) flat image index of each hit's pixel."""
+        return self.pixels[self.sample // self.spp]
+
+    def splat(self, values: np.ndarray) -> np.ndarray:
+        """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film."""
+        return group_sum(self.sample // self.spp, np.asarray(values, np.float64), len(self.pixels)) / self.spp
+
+    @property
+    def coverage(self) -> np.ndarray:
+        """Fraction of each pixel's samples that hit geometry: the alpha of a transparent film."""
+        return np.bincount(self.sample // self.spp, minlength=len(self.pixels)) / self.spp
+
+    def first(self, where: np.ndarray, count: int) -> np.ndarray:
+        """Rows of the first ``count`` hits of each pixel among those ``where`` holds: a pixel whose first samples
+        miss a lobe (a wall's edge on a metal floor) still has that lobe's light from its other samples."""
+        rows = np.nonzero(where)[0]
+        pixel = self.sample[rows] // self.spp  # non-decreasing: hits are in sample order
+        rank = np.arange(len(rows)) - np.searchsorted(pixel, pixel)
+        return rows[rank < count]

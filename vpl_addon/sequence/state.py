@@ -1,0 +1,111 @@
+"""The state a method carries from frame to frame of an animation (the sequence methods of Hedman et al. and
+Moreau et al. keep theirs; every method at least keeps what a static frame can reuse).
+
+``SequenceState`` is handed to ``render(..., sequence=state)`` for every frame of a bake, in order:
+
+* ``begin(scene)`` digests the frame (``motion.Snapshot``), compares it with the previous one (``motion.Motion``)
+  and returns the tracer: the previous frame's BVH when no triangle moved, a new one otherwise;
+* ``place(method, context, settings)`` places the frame's virtual lights with a method module (render hands it
+  in). A method that keeps its own state across frames (``smc``; ``ir``, ``bidir`` and ``vbnl`` their light paths,
+  ``path_verification``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up, so a
+  chunk of frames can begin on another machine) and ``advance(state, context, settings, motion) -> (lights, info)``.
+  For the others the rule is the static one: when nothing they depend on changed (geometry, lights, shading, and the
+  camera for the view-dependent ones), the previous frame's lights are reused and no light path is traced; the
+  placement generator is put back where it was after they were placed, so the frame renders exactly as that one.
+
+The state pickles (without its tracer), so a bake saves it after every frame and an interrupted bake resumes from
+the last finished frame with exactly the state an uninterrupted bake would have had. Frame ``f`` places its lights
+with ``frame_seed(seed, f)`` (``RenderSettings.placement_seed``) and samples its pixels with ``seed``: its random
+numbers do not depend on where the bake started, and the pixel noise does not flicker.
+"""
+from __future__ import annotations
+
+import pickle
+
+import numpy as np
+
+from ..core.tracer import Tracer
+from .motion import Motion, Snapshot
+
+
+def frame_seed(seed: int, frame: int) -> int:
+    """The seed of one frame: a hash of (seed, frame), so frames are independent and reproducible."""
+    return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, (int(frame) + (1 << 31)) & 0xFFFFFFFF])
+               .generate_state(1)[0] & 0x7FFFFFFF)
+
+
+class SequenceState:
+    """One method's state across the frames of a sequence."""
+
+    def __init__(self, method: str):
+        self.method = method
+        self.frame: int | None = None  # the last frame begun
+        self.snapshot: Snapshot | None = None
+        self.motion: Motion | None = None
+        self.lights = None  # the last frame's placed lights and info (static reuse)
+        self.info: dict = {}
+        self.method_state = None  # what a sequence method keeps (its ``start``/``advance``)
+        self.bvh_builds = 0  # BVHs built over the whole sequence (static frames build none)
+        self.rng_state = None  # the placement generator's state after the lights were last placed
+        self._tracer: Tracer | None = None
+        self._tracer_digest: str | None = None
+
+    # -- per frame -------------------------------------------------------------------------------------------------
+    def begin(self, scene, frame: int | None = None) -> Tracer:
+        snapshot = Snapshot.of(scene)
+        self.motion = Motion.between(self.snapshot, snapshot)
+        self.snapshot, self.frame = snapshot, frame
+        if self._tracer is None or self._tracer_digest != snapshot.triangles:
+            if self._tracer is not None:
+                self._tracer.close()
+            self._tracer = Tracer(scene.triangles)
+            self._tracer_digest = snapshot.triangles
+            self.bvh_builds += 1
+        self._tracer.rays_traced = 0
+        return self._tracer
+
+    def place(self, module, context, settings):
+        """The frame's lights from ``module``, a method of ``methods.METHODS`` (handed in, so the sequence machinery
+        that methods build on imports none of them)."""
+        motion = self.motion or Motion(first=True)
+        if hasattr(module, "advance"):
+            if self.method_state is None:
+                self.method_state = module.start(context, settings)
+            lights, info = module.advance(self.method_state, context, settings, motion)
+        elif self.lights is not None and motion.static(
+                view_dependent=not getattr(module, "VIEW_INDEPENDENT", False)):  # lights that ignore the camera
+            lights = self.lights
+            info = {**self.info, "light_paths": 0, "reused": True}
+        else:
+            lights, info = module.place(context, settings)
+        stable = getattr(module, "STABLE_LIGHTS", False)  # lights that keep their slots from frame to frame
+        if (info.get("reused") or stable) and self.rng_state is not None:
+            # what the caller draws next (the gather's order of the lights) is drawn as in the frame the lights
+            # were placed in (or, for stable slots, the first frame): a static frame renders exactly as that frame,
+            # and a VPL that lives on stays in its interleaving subset
+            context.rng.bit_generator.state = self.rng_state
+        else:
+            self.rng_state = context.rng.bit_generator.state
+        self.lights, self.info = lights, {k: v for k, v in info.items() if k != "reused"}
+        return lights, info
+
+    def close(self) -> None:
+        if self._tracer is not None:
+            self._tracer.close()
+            self._tracer = None
+
+    # -- persistence -----------------------------------------------------------------------------------------------
+    def __getstate__(self):
+        state = dict(self.__dict__)
+        state["_tracer"], state["_tracer_digest"] = None, None
+        return state
+
+    def dumps(self) -> bytes:
+        return pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL)
+
+    @staticmethod
+    def loads(data: bytes) -> "SequenceState":
+        state = pickle.loads(data)
+        if not isinstance(state, SequenceState):
+            raise ValueError("not a sequence state")
+        return state
