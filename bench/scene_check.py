@@ -30,7 +30,7 @@ import importlib  # noqa: E402
 import bpy  # noqa: E402
 from PIL import Image  # noqa: E402
 
-scene_import = importlib.import_module(f"{PKG}.operators.scene_import")
+shared_scenes = importlib.import_module(f"{PKG}.importers.shared_scenes")
 reference = importlib.import_module(f"{PKG}.operators.reference")
 output = importlib.import_module(f"{PKG}.operators.output")
 exr = importlib.import_module(f"{PKG}.vpl_addon.core.exr")
@@ -83,7 +83,7 @@ def main(argv=None) -> int:
     given = dict(spec.split("=", 1) for spec in args.exr)
     summary = os.path.join(args.out, "check.json")
     rows = json.load(open(summary)) if os.path.isfile(summary) else []
-    for name in args.names or list(scene_import.SCENES):
+    for name in args.names or list(shared_scenes.SCENES):
         if name in given:
             images, header = exr.read_passes(given[name])
             ours, seconds = images["Combined"][..., :3].astype(np.float64), None
@@ -94,10 +94,10 @@ def main(argv=None) -> int:
             samples = args.samples
         row = {"scene": name, "samples": samples, "seconds": seconds and round(seconds, 1),
                "mean_ours": [round(float(v), 5) for v in ours.mean((0, 1))]}
-        ref_name = scene_import.REFERENCE_IMAGES.get(name)
+        ref_name = shared_scenes.REFERENCE_IMAGES.get(name)
         panels = [ours]
         if ref_name:
-            folder = scene_import.SCENES[name][0]
+            folder = shared_scenes.SCENES[name][0]
             ref_full, _ = exr.read_passes(os.path.join(args.source, folder, ref_name))
             ref = box_down(ref_full["Combined"][..., :3].astype(np.float64), ours.shape[:2])
             panels.append(ref)

@@ -30,7 +30,7 @@ def main():
     import bpy
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
-    from vpl_gi.operators.bench import best_of
+    from vpl_gi.bench.runner import best_of
     from vpl_gi.operators.extract import extract
     from vpl_gi.vpl_addon.core.tracer import Tracer
 

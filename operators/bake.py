@@ -1,14 +1,14 @@
 """Baking a frame range to one multilayer EXR per frame, carrying each method's state from frame to frame.
 
-The unit a render farm splits is a frame range; ``bake`` renders one, in order, through the engine (so the files
-are exactly what F12 or ``blender -b -a`` would write) with a ``sequence.SequenceState`` that the engine picks up
-(``active_sequence``). Every frame appears atomically (``output.render_to``: a ``.partial-<pid>-`` file renamed into
-place), then the state after that frame is saved atomically under ``.bake-state/`` in the output folder. A bake
-started again over the same folder and settings skips the finished frames and continues from the last saved state,
-so it writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``,
-its pixels use ``seed`` in every frame as Cycles does without an animated seed; the EXR
-header carries no date or render time). A range that starts cold, with no saved state before it, warms the state up
-first (the methods' ``start``), so chunks of one range can be rendered on different machines.
+The unit a render farm splits is a frame range; ``bake`` renders one, in order, through the engine (so the files are
+exactly what F12 or ``blender -b -a`` would write) with a ``sequence.state.SequenceState`` that the engine picks up
+(``frame_state.rendering``). Every frame appears atomically (``output.render_to``: a ``.partial-<pid>-`` file renamed
+into place), then the state after that frame is saved atomically under ``.bake-state/`` in the output folder. A bake
+started again over the same folder and settings skips the finished frames and continues from the last saved state, so it
+writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``, its pixels
+use ``seed`` in every frame as Cycles does without an animated seed; the EXR header carries no date or render time). A
+range that starts cold, with no saved state before it, warms the state up first (the methods' ``start``), so chunks of
+one range can be rendered on different machines.
 
 ``bake.json`` in the folder records the settings; a folder that holds a bake of other settings is refused unless
 ``overwrite`` is given, so nothing the user had is replaced without asking.
@@ -25,50 +25,18 @@ from typing import Callable
 
 import bpy
 
-from ..vpl_addon.sequence.state import SequenceState, frame_seed
+from ..vpl_addon.sequence.state import SequenceState
+from . import engine
+from .frame_state import rendering, settings_key
+from .output import render_to
 
 MANIFEST = "bake.json"
 STATE_DIR = ".bake-state"
 FRAME_NAME = "frame_{:04d}.exr"
 
-# The state the engine uses for the frame being rendered: set by ``Bake`` around each frame; for
-# ``blender -b -a`` (``render(animation=True)``) the engine keeps one per scene and settings in ``_ANIMATION``.
-_ACTIVE: SequenceState | None = None
-_ANIMATION: dict[str, tuple[SequenceState, int]] = {}  # key -> (state, last frame)
-# Frames rendered with a sequence state, as the engine reports them (frame, light paths, reused, BVH builds).
-FRAME_LOG: list[dict] = []
-
 
 class BakeError(RuntimeError):
     """A problem with the bake's input or output folder; the message explains it."""
-
-
-def settings_key(scene) -> dict:
-    """Everything about the scene's settings that changes the baked pixels (not the frame range)."""
-    props = scene.vpl_gi
-    values = {p.identifier: getattr(props, p.identifier) for p in props.bl_rna.properties
-              if p.identifier not in {"rna_type", "name", "bake_directory", "bake_overwrite"}}
-    r = scene.render
-    values.update(resolution=[r.resolution_x, r.resolution_y, r.resolution_percentage])
-    return values
-
-
-def active_sequence(scene, settings, is_animation: bool):
-    """(sequence state or None, the seed for placing lights) for the frame the engine is about to render: in a
-    sequence ``frame_seed(seed, frame)``, so a frame's lights do not depend on where the bake started."""
-    if _ACTIVE is not None:
-        return _ACTIVE, frame_seed(settings.seed, scene.frame_current)
-    if is_animation:
-        key = json.dumps([scene.name, settings_key(scene)], sort_keys=True, default=str)
-        if key not in _ANIMATION or _ANIMATION[key][1] >= scene.frame_current:
-            for old, _ in _ANIMATION.values():  # a new animation render: start cold
-                old.close()
-            _ANIMATION.clear()
-            _ANIMATION[key] = (SequenceState(settings.method), scene.frame_current)
-        state = _ANIMATION[key][0]
-        _ANIMATION[key] = (state, scene.frame_current)
-        return state, frame_seed(settings.seed, scene.frame_current)
-    return None, None
 
 
 def frame_path(out_dir: str, frame: int) -> str:
@@ -109,6 +77,7 @@ class BakeReport:
     skipped: list[int] = field(default_factory=list)  # already finished by an earlier run
     resumed_from: int | None = None  # the frame whose saved state the bake continued from
     frames: list[dict] = field(default_factory=list)  # per rendered frame: light paths, rays, reused, seconds
+    warnings: list[str] = field(default_factory=list)  # e.g. a saved state it could not read (it started cold)
 
 
 class Bake:
@@ -171,9 +140,6 @@ class Bake:
     def steps(self, render_frame: Callable[[str], None] | None = None):
         """The bake one frame at a time (for a modal operator): yields (fraction done, frame) after each frame it
         renders; closing the generator ends the bake cleanly after the last finished frame."""
-        global _ACTIVE
-        from . import engine
-        from .output import render_to
         render_frame = render_frame or (lambda path: render_to(self.scene, path))
         report = self.report = BakeReport()
         scene = self.scene
@@ -191,17 +157,17 @@ class Bake:
                 if state is None:
                     previous = _state_path(self.out_dir, frame - 1)
                     if os.path.exists(previous):
-                        with open(previous, "rb") as f:
-                            state = SequenceState.loads(f.read())
-                        report.resumed_from = frame - 1
-                    else:
+                        try:
+                            with open(previous, "rb") as f:
+                                state = SequenceState.loads(f.read())
+                            report.resumed_from = frame - 1
+                        except (OSError, ValueError) as err:
+                            report.warnings.append(f"{previous}: {err}; frame {frame} starts cold")
+                    if state is None:
                         state = SequenceState(scene.vpl_gi.method)
                 scene.frame_set(frame)
-                _ACTIVE = state
-                try:
+                with rendering(state):
                     render_frame(frame_path(self.out_dir, frame))
-                finally:
-                    _ACTIVE = None
                 _write_atomic(_state_path(self.out_dir, frame), state.dumps())
                 if os.path.exists(_state_path(self.out_dir, frame - 1)):
                     os.unlink(_state_path(self.out_dir, frame - 1))
@@ -215,7 +181,6 @@ class Bake:
                                       "seconds": sum(stats.get("seconds", {}).values())})
                 yield (number + 1) / len(self.frames), frame
         finally:
-            _ACTIVE = None
             if state is not None:
                 state.close()
             for name, value in stamps.items():
@@ -224,7 +189,6 @@ class Bake:
 
 
 def _engine_error():
-    from . import engine
     errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
     if errors:
         raise BakeError(errors[0])
@@ -251,7 +215,6 @@ class VPLGI_OT_bake_sequence(bpy.types.Operator):
             raise BakeError("set the bake folder first")
         bake = Bake(scene, folder, range(scene.frame_start, scene.frame_end + 1),
                     overwrite=scene.vpl_gi.bake_overwrite)
-        from .output import render_to
         return bake, bake.steps(lambda path: render_to(scene, path, _engine_error))
 
     def execute(self, context):  # scripts and background mode: the whole range, blocking
@@ -262,6 +225,8 @@ class VPLGI_OT_bake_sequence(bpy.types.Operator):
         except (BakeError, OSError, RuntimeError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
+        for warning in bake.report.warnings:
+            self.report({"WARNING"}, warning)
         self.report({"INFO"}, f"baked {len(bake.report.rendered)} frames to {bake.out_dir}")
         return {"FINISHED"}
 
@@ -301,6 +266,8 @@ class VPLGI_OT_bake_sequence(bpy.types.Operator):
 
     def _finish(self, context):
         self._steps.close()
+        for warning in self._bake.report.warnings:
+            self.report({"WARNING"}, warning)
         wm = context.window_manager
         wm.event_timer_remove(self._timer)
         wm.progress_end()

@@ -113,6 +113,8 @@ def cmd_bake(args) -> int:
         return True
 
     report = bake.run(progress, lambda path: render_to(scene, path, _verify))
+    for warning in report.warnings:
+        print(f"warning: {warning}", file=sys.stderr)
     if report.skipped:
         print(f"skipped {len(report.skipped)} finished frames"
               + (f", resumed from the state after frame {report.resumed_from}" if report.resumed_from is not None
@@ -207,7 +209,13 @@ def cmd_compare(args) -> int:
 
 
 def cmd_bench(args) -> int:
-    from .bench import Bench, BenchError, Options, all_methods, parse_budgets
+    try:
+        from ..bench.runner import Bench, BenchError, Options, all_methods, parse_budgets
+    except ModuleNotFoundError as err:
+        if err.name != f"{__package__.rpartition('.')[0]}.bench":
+            raise
+        raise UserError("the benchmark runs from a clone of the repository: bench/ is not part of the installed "
+                        "extension") from None
     methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else list(all_methods())
     for m in methods:
         if m not in all_methods():
@@ -257,19 +265,19 @@ def cmd_bench(args) -> int:
 
 
 def cmd_scenes(args) -> int:
-    from . import scene_import
-    from .mitsuba import MitsubaError
+    from ..importers import shared_scenes
+    from ..importers.mitsuba import MitsubaError
     if not os.path.isdir(args.source):
         raise UserError(f"no such folder: {args.source} (the public scenes, ../shared/scenes from the repository)")
-    names = args.names or list(scene_import.SCENES)
+    names = args.names or list(shared_scenes.SCENES)
     for name in names:
-        if name not in scene_import.SCENES:
-            raise UserError(f"unknown scene {name!r}; choose from {', '.join(scene_import.SCENES)}")
+        if name not in shared_scenes.SCENES:
+            raise UserError(f"unknown scene {name!r}; choose from {', '.join(shared_scenes.SCENES)}")
     for name in names:
         out = os.path.join(args.out, name + ".blend")
         t0 = time.perf_counter()
         try:
-            written, warnings = scene_import.convert(args.source, name, out, width=args.width, force=args.force)
+            written, warnings = shared_scenes.convert(args.source, name, out, width=args.width, force=args.force)
         except MitsubaError as err:
             raise UserError(str(err)) from None
         if not written:

@@ -14,8 +14,8 @@ from ..vpl_addon.core import passes as P
 from ..vpl_addon.core.memory import trim_heap
 from ..vpl_addon.core.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
-from .bake import FRAME_LOG, active_sequence
 from .extract import ExtractionError, extract
+from .frame_state import FRAME_LOG, active_sequence
 
 # (pass name, view layer toggle, channels, channel ids)
 PASS_TOGGLES = (

@@ -97,7 +97,7 @@ def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
     """``blender -b scene.blend -E VPL_GI -s 1 -e 3 -a`` renders through the same engine: frames 2 and 3 of a
     static scene reuse frame 1's lights; the frames of a moving light are placed again."""
     import bpy
-    from vpl_gi.operators import bake, engine
+    from vpl_gi.operators import engine, frame_state
     for blend, reused in (("cornell_area", [False, True, True]), ("seq_moving_light", [False, False, False])):
         bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / f"{blend}.blend"))
         scene = bpy.context.scene
@@ -106,9 +106,9 @@ def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
         scene.vpl_gi.method, scene.vpl_gi.vpls, scene.vpl_gi.samples = "ir", 128, 1
         scene.frame_start, scene.frame_end = 1, 3
         scene.render.filepath = str(tmp_path / f"{blend}_")
-        bake.FRAME_LOG.clear()
+        frame_state.FRAME_LOG.clear()
         bpy.ops.render.render(animation=True)
-        log = bake.FRAME_LOG
+        log = frame_state.FRAME_LOG
         assert [e["frame"] for e in log] == [1, 2, 3]
         assert [e["reused"] for e in log] == reused
         assert [e["light_paths"] == 0 for e in log] == reused
@@ -143,6 +143,13 @@ def test_bake_operator_renders_the_frame_range_and_stopping_keeps_what_is_done(e
     assert report.skipped == [3] and report.resumed_from == 3 and report.rendered == [4, 5]
     for name in frames_in(tmp_path / "op"):
         assert (tmp_path / "op" / name).read_bytes() == (tmp_path / "esc" / name).read_bytes()
+
+    # a state saved by an older layout of the engine (its class has moved): frame 4 starts cold, with a warning
+    bake.Bake(scene, str(tmp_path / "old"), range(3, 6)).run(progress=lambda fraction, text: False)
+    (tmp_path / "old" / ".bake-state" / "frame_0003.pkl").write_bytes(b"cvpl_addon.sequence\nSequenceState\n)\x81.")
+    report = bake.Bake(scene, str(tmp_path / "old"), range(3, 6)).run()
+    assert report.resumed_from is None and report.rendered == [4, 5], report
+    assert len(report.warnings) == 1 and "frame 4 starts cold" in report.warnings[0]
 
 
 def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path):

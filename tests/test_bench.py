@@ -91,7 +91,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     code, stdout, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--scaling",
                                    "--methods", "ir,bidir,cycles,cycles+oidn", "--out", out)
     assert code == 0, stderr
-    from vpl_gi.operators.bench import COLUMNS
+    from vpl_gi.bench.runner import COLUMNS
     with open(out / "bench.csv", newline="") as f:
         reader = csv.DictReader(f)
         assert tuple(reader.fieldnames) == COLUMNS
@@ -128,7 +128,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
 
 @pytest.mark.blender
 def test_peak_memory_does_not_count_the_heap_earlier_runs_freed(ext):
-    from vpl_gi.operators.bench import PeakMemory
+    from vpl_gi.bench.runner import PeakMemory
     from vpl_gi.vpl_addon.core.memory import status_kb
     start = status_kb("VmRSS") / 1024
     big = np.ones(2_500_000)

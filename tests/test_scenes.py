@@ -1,39 +1,21 @@
-"""Real scenes: the Mitsuba XML parser and the Cornell measured data (no bpy: the parser modules are loaded on their
-own), and one conversion of the smallest real scene through bpy checked down to the engine's extracted arrays."""
+"""Real scenes: the Mitsuba XML parser and the Cornell measured data (no bpy, ``importers/``), and one conversion of the
+smallest real scene through bpy checked down to the engine's extracted arrays."""
 from __future__ import annotations
 
 import importlib.util
 import math
 import os
-import sys
-import types
 
 import numpy as np
 import pytest
 
 from conftest import ROOT
+from importers import cornell_measured, mitsuba, wavefront  # no bpy in them: tests/test_layout.py
 
 SHARED = ROOT.parent / "shared" / "scenes"
 NEED_SHARED = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/scenes is not beside the repository")
 
 
-def _load_without_bpy():
-    """operators/{mitsuba,cornell_measured,wavefront}.py as a package that skips operators/__init__ (which
-    registers the Blender side): proof that the parser needs no bpy."""
-    name = "scenes_io_under_test"
-    if name not in sys.modules:
-        pkg = types.ModuleType(name)
-        pkg.__path__ = [str(ROOT / "operators")]
-        sys.modules[name] = pkg
-        for mod in ("mitsuba", "wavefront", "cornell_measured"):
-            spec = importlib.util.spec_from_file_location(f"{name}.{mod}", ROOT / "operators" / f"{mod}.py")
-            module = importlib.util.module_from_spec(spec)
-            sys.modules[spec.name] = module
-            spec.loader.exec_module(module)
-    return (sys.modules[f"{name}.{m}"] for m in ("mitsuba", "wavefront", "cornell_measured"))
-
-
-mitsuba, wavefront, cornell_measured = _load_without_bpy()
 
 
 def parse(body: str, tmp_path=None, width=256, version="2.1.0"):
@@ -217,14 +199,12 @@ def test_real_scenes_parse_and_say_what_is_missing():
 @NEED_SHARED
 def test_cornell_measured_converts_to_blender_and_extracts(ext, tmp_path):
     import bpy
-    scene_import = sys.modules[f"{ext.__name__}.operators.scene_import"] if \
-        f"{ext.__name__}.operators.scene_import" in sys.modules else \
-        importlib.import_module(f"{ext.__name__}.operators.scene_import")
+    shared_scenes = importlib.import_module(f"{ext.__name__}.importers.shared_scenes")
     extract = importlib.import_module(f"{ext.__name__}.operators.extract")
     out = tmp_path / "cornell.blend"
-    written, _ = scene_import.convert(str(SHARED), "cornell_measured", str(out))
+    written, _ = shared_scenes.convert(str(SHARED), "cornell_measured", str(out))
     assert written and out.is_file()
-    assert scene_import.convert(str(SHARED), "cornell_measured", str(out)) == (False, [])  # fingerprint current
+    assert shared_scenes.convert(str(SHARED), "cornell_measured", str(out)) == (False, [])  # fingerprint current
     bpy.ops.wm.open_mainfile(filepath=str(out))
     scene = bpy.context.scene
     assert (scene.render.resolution_x, scene.render.resolution_y) == (256, 256)
@@ -254,7 +234,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
     directions through the converted world, sees the texel Mitsuba's envmap lookup gives for that direction."""
     import OpenEXR
     import tempfile
-    scene_import = importlib.import_module(f"{ext.__name__}.operators.scene_import")
+    shared_scenes = importlib.import_module(f"{ext.__name__}.importers.shared_scenes")
     read_passes = importlib.import_module(f"{ext.__name__}.vpl_addon.core.exr").read_passes
     render_to = importlib.import_module(f"{ext.__name__}.operators.output").render_to
     from mathutils import Vector
@@ -267,7 +247,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
     data = mitsuba.MitsubaScene(path, mitsuba.Camera(np.eye(4), 1.0, "x", 4, 4, (4, 4)),
                                 environment=mitsuba.Environment("envmap", filename=path, matrix=to_world,
                                                                 element='emitter type="envmap"'))
-    scene, warnings = scene_import.build(data, samples=4)
+    scene, warnings = shared_scenes.build(data, samples=4)
     assert any(line.startswith('emitter type="envmap" (filename "sky.exr"): Cycles uses the map') for line in warnings)
     bg = scene.world.node_tree.nodes["Background"]
     mean = np.array(bg.inputs["Color"].default_value[:3]) * bg.inputs["Strength"].default_value
@@ -284,7 +264,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
         with tempfile.TemporaryDirectory() as tmp:
             render_to(scene, os.path.join(tmp, "x.exr"))
             got = read_passes(os.path.join(tmp, "x.exr"))[0]["Combined"][..., :2].mean((0, 1))
-        local = rot_inv @ (scene_import.C[:3, :3].T @ d_blender)  # Mitsuba world, then the map's local frame
+        local = rot_inv @ (shared_scenes.C[:3, :3].T @ d_blender)  # Mitsuba world, then the map's local frame
         want = [(math.atan2(local[0], -local[2]) / (2 * math.pi)) % 1.0, math.acos(local[1]) / math.pi]
         assert got == pytest.approx(want, abs=1.5 / h), d
 

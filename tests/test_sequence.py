@@ -100,6 +100,16 @@ def test_a_saved_state_renders_the_next_frame_exactly_as_the_live_one():
         SequenceState.loads(__import__("pickle").dumps({"not": "a state"}))
 
 
+@pytest.mark.parametrize("data", [b"\x80\x05not a pickle", b"",
+                                  b"cvpl_addon.sequence\nSequenceState\n)\x81.",  # a class that moved
+                                  b"cvpl_addon.path_verification\nLightPathStore\n)\x81."])  # a module gone
+def test_a_state_from_another_layout_or_damaged_is_refused_with_a_value_error(data):
+    """Bake states saved before the engine's modules moved name classes that are no longer there: the bake is
+    told by a ValueError (and starts cold) rather than crashing on an ImportError."""
+    with pytest.raises(ValueError, match="another version of VPL GI, or damaged"):
+        SequenceState.loads(data)
+
+
 @pytest.mark.parametrize("method", list(METHODS))
 def test_a_block_moving_through_the_lights_renders_finite_light_in_every_frame(method):
     """A block slides through the room, over the floor's VPLs: every method's carried

@@ -105,7 +105,14 @@ class SequenceState:
 
     @staticmethod
     def loads(data: bytes) -> "SequenceState":
-        state = pickle.loads(data)
+        """The state ``dumps`` wrote; ValueError for anything else, including a state pickled by another version
+        of the engine whose classes have moved or changed (the caller starts cold instead)."""
+        try:
+            state = pickle.loads(data)
+        except (pickle.UnpicklingError, ImportError, AttributeError, EOFError, TypeError, ValueError,
+                IndexError) as err:
+            raise ValueError(f"unreadable sequence state ({type(err).__name__}: {err}): written by another "
+                             f"version of VPL GI, or damaged") from None
         if not isinstance(state, SequenceState):
             raise ValueError("not a sequence state")
         return state

@@ -1,7 +1,7 @@
 """Wavefront OBJ -> numpy polygons (positions, per-corner uvs and normals), no bpy.
 
 Mitsuba reads only positions, texture coordinates, normals and faces of an OBJ (materials come from the scene XML),
-so that is all this reads; ``scene_import`` turns it into a Blender mesh. Faces keep their corner count (Blender
+so that is all this reads; ``shared_scenes`` turns it into a Blender mesh. Faces keep their corner count (Blender
 meshes hold n-gons); negative (relative) indices are resolved.
 """
 from __future__ import annotations

@@ -30,6 +30,9 @@ from typing import Callable
 import bpy
 import numpy as np
 
+from ..operators.extract import ExtractionError, extract
+from ..operators.output import render_to
+from ..operators.reference import configure_cycles, make_reference, reference_hash, stored_info
 from ..vpl_addon.core import passes as P
 from ..vpl_addon.core import tracer as tracer_module
 from ..vpl_addon.core.exr import read_passes
@@ -39,9 +42,6 @@ from ..vpl_addon.evaluation.metrics import coverage_mask, errors, pass_mask
 from ..vpl_addon.evaluation.subdivision import levels_for, subdivide
 from ..vpl_addon.methods import METHODS
 from ..vpl_addon.render import RenderSettings, render
-from .extract import ExtractionError, extract
-from .output import render_to
-from .reference import configure_cycles, make_reference, reference_hash, stored_info
 
 CYCLES = "cycles"
 OIDN = "cycles+oidn"

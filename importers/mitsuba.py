@@ -1,8 +1,8 @@
 """Mitsuba scene XML (versions 0.6 to 3) -> plain data: camera, shapes, materials, emitters, environment.
 
-No bpy here (``operators/scene_import.py`` builds the Blender scene from what this returns), so every rule of the
-mapping is unit-testable from a small XML string. Coordinates stay Mitsuba's (Y up; the camera looks along its local
-+Z with +X to the image's left); the builder turns them into Blender's frame.
+No bpy here (``shared_scenes`` builds the Blender scene from what this returns), so every rule of the mapping is
+unit-testable from a small XML string. Coordinates stay Mitsuba's (Y up; the camera looks along its local +Z with +X to
+the image's left); the builder turns them into Blender's frame.
 
 What cannot be represented exactly is approximated, and each approximation adds one warning that starts with the XML
 element it comes from, e.g. ``bsdf id="Metal" type="roughconductor": approximated as ...``.

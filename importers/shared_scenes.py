@@ -28,7 +28,7 @@ from .wavefront import read_obj
 FINGERPRINT_KEY = "vpl_gi_scene_fingerprint"
 C = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
 CAMERA_FLIP = np.diag([-1.0, 1.0, -1.0, 1.0])
-SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "scene_import.py")
+SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "shared_scenes.py")
 
 # name -> (folder under ../shared/scenes, file inside it, parser). "mitsuba-diffuse": every BSDF made Lambertian
 # with its base colour (checkerboards by their mean colour), the variant on which VPL GI's diffuse-only methods and
