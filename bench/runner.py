@@ -40,6 +40,7 @@ from ..vpl_addon.core.memory import status_kb, trim_heap
 from ..vpl_addon.evaluation import convergence as C
 from ..vpl_addon.evaluation.metrics import coverage_mask, errors, pass_mask
 from ..vpl_addon.evaluation.subdivision import levels_for, subdivide
+from ..vpl_addon.gather import summing
 from ..vpl_addon.methods import METHODS
 from ..vpl_addon.render import RenderSettings, render
 
@@ -279,7 +280,7 @@ def record_gather_rays(built, settings: RenderSettings, limit: int) -> tuple[np.
             frame = frame.f_back
             if frame is None:
                 break
-            if frame.f_globals.get("__name__", "").endswith(".gather"):
+            if frame.f_globals.get("__name__") == summing.__name__:
                 from_gather = True
                 break
         if not from_gather:

@@ -1,10 +1,11 @@
 """The command line with the real bpy module: render, compare, and bad input answered in one line."""
 import json
+import shutil
 
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES, run_cli
+from conftest import EXAMPLES, ROOT, run_cli
 
 pytestmark = pytest.mark.blender
 
@@ -52,6 +53,15 @@ def test_missing_file(tmp_path):
     code, _, stderr = run_cli("render", tmp_path / "nope.blend", "-o", tmp_path / "o.exr")
     assert_one_line_error(code, stderr, "no such file", "nope.blend")
     assert not (tmp_path / "o.exr").exists()
+
+
+def test_bench_from_an_installed_extension_says_where_it_runs(tmp_path):
+    """The extension ships without bench/ (manifest excludes): ``bench`` says so in one line."""
+    for part in ("__init__.py", "blender_manifest.toml", "vpl_addon", "operators", "importers"):
+        copy = shutil.copytree if (ROOT / part).is_dir() else shutil.copy
+        copy(ROOT / part, tmp_path / part)
+    code, _, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", cwd=tmp_path)
+    assert_one_line_error(code, stderr, "from a clone of the repository", "bench/")
 
 
 def test_scene_without_camera(small_blend, tmp_path):
