@@ -70,6 +70,29 @@ class Materials:
 
 
 @dataclass
+class Environment:
+    """The world as an equirectangular map (Blender's Environment Texture): radiance times the Background's strength
+    and the rotation taking a world direction to the map's lookup direction (the Mapping node's)."""
+    image: np.ndarray  # (H,W,3) float32 linear radiance, row 0 = bottom (v = 0)
+    rotation: np.ndarray = field(default_factory=lambda: np.eye(3))  # (3,3)
+
+    @staticmethod
+    def checked(image, rotation=None) -> "Environment | None":
+        """The map made safe (NaN, infinite and negative texels 0; a rotation that is not one: none), or None for a
+        map without texels or light."""
+        image = np.asarray(image, np.float32)
+        if image.ndim != 3 or image.shape[0] == 0 or image.shape[1] == 0 or image.shape[2] < 3:
+            return None
+        image = np.maximum(np.nan_to_num(image[..., :3], nan=0.0, posinf=0.0, neginf=0.0), 0.0)
+        if not image.max() > 0.0:
+            return None
+        r = np.eye(3) if rotation is None else np.asarray(rotation, np.float64).reshape(3, 3)
+        if not (np.isfinite(r).all() and np.allclose(r @ r.T, np.eye(3), atol=1e-6)):
+            r = np.eye(3)
+        return Environment(image, r)
+
+
+@dataclass
 class Scene:
     triangles: np.ndarray  # (T,3,3) float32 world-space corners
     normals: np.ndarray  # (T,3,3) float32 per-corner shading normals (unit)
@@ -81,13 +104,15 @@ class Scene:
     lights: list[Light]
     camera: Camera
     world: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))  # background radiance RGB
+    environment: Environment | None = None  # the world as a map (then ``world`` is not used)
     textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3) float32 linear, row 0 = bottom (v = 0)
     dropped: dict[str, int] = field(default_factory=dict)  # object name -> triangles dropped by build()
     max_bounces: int = 8  # diffuse bounce limit of light paths (Cycles' min(max_bounces, diffuse_bounces))
 
     @staticmethod
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
-              object_id=None, object_names=None, world=(0.0, 0.0, 0.0), textures=(), max_bounces=8) -> "Scene":
+              object_id=None, object_names=None, world=(0.0, 0.0, 0.0), environment=None, textures=(),
+              max_bounces=8) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         n = len(tri)
@@ -130,6 +155,8 @@ class Scene:
                      material=material, object_id=object_id.astype(np.int32), object_names=object_names,
                      materials=materials, lights=[l for l in lights if l.is_active], camera=camera,
                      world=np.maximum(np.nan_to_num(np.asarray(world, np.float32), nan=0.0, posinf=0.0), 0.0),
+                     environment=None if environment is None else Environment.checked(environment.image,
+                                                                                       environment.rotation),
                      textures=textures, dropped=dropped,
                      max_bounces=max(0, int(max_bounces)))
 

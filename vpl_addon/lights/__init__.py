@@ -10,7 +10,8 @@ by ``tests/test_cycles_direct.py``:
 * area, power P [W] over area A: one-sided Lambertian emitter of radiance P / (pi A).
 * sun, strength S [W/m^2]: irradiance S on a surface facing it, spread over a disc of the given angle.
 * emissive triangles: radiance = Emission Color x Strength, emitted from both sides.
-* world: constant radiance = Background Color x Strength from every direction.
+* world: constant radiance = Background Color x Strength from every direction (``world``), or an
+  equirectangular Environment Texture times Strength, sampled by importance (``environment``).
 
 ``sample_incident(p, n, u1, u2, owner)`` returns, for light samples at shading points p with normals n (sample i at
 point ``owner[i]``), unit directions toward the light, the distance to the sampled light point (inf for distant
@@ -24,10 +25,12 @@ light's total power). Distant lights (sun, world) emit from a disc covering the 
 """
 from .area import AreaLight
 from .emissive import EmissiveTriangles
+from .environment import EnvironmentLight
 from .light import Light
 from .light_set import LightSet
 from .point import PointLight, SpotLight
 from .sun import SunLight
 from .world import WorldLight
 
-__all__ = ["AreaLight", "EmissiveTriangles", "Light", "LightSet", "PointLight", "SpotLight", "SunLight", "WorldLight"]
+__all__ = ["AreaLight", "EmissiveTriangles", "EnvironmentLight", "Light", "LightSet", "PointLight", "SpotLight",
+           "SunLight", "WorldLight"]

@@ -6,6 +6,7 @@ import numpy as np
 
 from ..core.sampling import sample_cdf
 from .emissive import EmissiveTriangles
+from .environment import EnvironmentLight
 from .world import WorldLight
 
 
@@ -25,13 +26,15 @@ class LightSet:
             emissive = EmissiveTriangles.from_scene(scene)
             if emissive is not None:
                 lights.append(emissive)
-            if scene.world.max() > 0.0:
+            if scene.environment is not None:
+                lights.append(EnvironmentLight(scene.environment.image, scene.environment.rotation))
+            elif scene.world.max() > 0.0:  # a constant world needs no importance map
                 lights.append(WorldLight(scene.world))
         self.center, self.radius = center, radius
         flux = np.array([max(l.flux_estimate(radius), 0.0) for l in lights], np.float64)
         self.lights = [l for l, f in zip(lights, flux) if f > 0.0]
         self.prob = _normalized(flux[flux > 0.0])
-        self.world = next((l for l in self.lights if isinstance(l, WorldLight)), None)
+        self.world = next((l for l in self.lights if isinstance(l, (WorldLight, EnvironmentLight))), None)
         self.local = [l for l in self.lights if l is not self.world]
 
     def __len__(self):

@@ -64,7 +64,8 @@ class Snapshot:
             bounds[name] = (pts.min(axis=0), pts.max(axis=0))
         m = scene.materials
         shading = _digest(m.base_color, m.roughness, m.metallic, m.emission, m.texture, np.asarray(scene.world),
-                          np.array([scene.max_bounces]), *scene.textures, scene.uvs)
+                          np.array([scene.max_bounces]), *scene.textures, scene.uvs,
+                          *(() if scene.environment is None else (scene.environment.image, scene.environment.rotation)))
         cam = scene.camera
         camera = _digest(np.asarray(cam.to_world, np.float64), np.asarray(cam.window, np.float64),
                          np.array([cam.width, cam.height, float(cam.orthographic)]))

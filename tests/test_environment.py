@@ -1,0 +1,95 @@
+"""The world as an environment map (``lights/environment.py``), without Blender: its sampling density is a density
+of the directions it draws, direct light under it matches the map integrated texel by texel, its light paths carry
+its power, and broken maps are made harmless."""
+import dataclasses
+
+import numpy as np
+import pytest
+
+from conftest import plane_scene
+from vpl_addon.core.sampling import uniform_sphere
+from vpl_addon.core.scene import Environment
+from vpl_addon.lights import EnvironmentLight, LightSet
+from vpl_addon.render import RenderSettings, render
+
+
+def sky(h=32, w=64, sun=(0.30, 0.80), sun_radiance=400.0):
+    """A dim blue gradient with a small bright 'sun' of a few texels at image coordinates ``sun`` (u, v)."""
+    v = (np.arange(h) + 0.5) / h
+    image = np.zeros((h, w, 3))
+    image[:] = (np.array([0.2, 0.3, 0.6]) * (0.3 + v)[:, None])[:, None, :]
+    row, col = int(sun[1] * h), int(sun[0] * w)
+    image[row:row + 2, col:col + 2] = sun_radiance
+    return image
+
+
+def directions_of_texels(h, w, sub=4):
+    """Centres of sub x sub cells in every texel, with their solid angles: quadrature over the sphere."""
+    u = (np.arange(w * sub) + 0.5) / (w * sub)
+    v = (np.arange(h * sub) + 0.5) / (h * sub)
+    uu, vv = np.meshgrid(u, v)
+    theta, phi = np.pi * (1 - vv.ravel()), 2 * np.pi * (0.5 - uu.ravel())
+    d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
+    return d, np.sin(theta) * (np.pi / (h * sub)) * (2 * np.pi / (w * sub))
+
+
+def test_the_pdf_is_a_density_and_the_samples_follow_it():
+    light = EnvironmentLight(sky())
+    rng = np.random.default_rng(1)
+    d, area = directions_of_texels(32, 64, 8)
+    assert (light.pdf(d) * area).sum() == pytest.approx(1.0, abs=1e-3)  # integrates to 1 over the sphere
+    d = uniform_sphere(rng.random(100_000), rng.random(100_000))
+    assert light.pdf(d).min() > 0.0
+    w = light.sample(rng.random(200_000), rng.random(200_000))
+    assert np.allclose(np.linalg.norm(w, axis=1), 1.0)
+    # the share of samples within 0.3 rad of the sun is the pdf's integral there
+    theta, phi = np.pi * (1 - 0.8 - 1 / 32), 2 * np.pi * (0.5 - 0.3 - 1 / 64)
+    sun = np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
+    expected = (light.pdf(d2 := directions_of_texels(32, 64, 8)[0]) * area)[(d2 @ sun) > np.cos(0.3)].sum()
+    assert expected > 0.5  # the sun draws most samples
+    assert ((w @ sun) > np.cos(0.3)).mean() == pytest.approx(expected, rel=0.02)
+
+
+@pytest.mark.parametrize("rotated", [False, True])
+def test_direct_light_under_the_map_is_the_map_integrated(rotated):
+    """An open floor facing +Z: Diffuse Direct = 1/pi * integral over the upper hemisphere of L cos, by quadrature
+    over the map's texels (the sun's texels make most of it). Rotated about a tilted axis, the same map lights the
+    floor as the map's directions rotated."""
+    image = sky()
+    rotation = np.eye(3)
+    if rotated:
+        a = 0.4
+        rotation = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+    scene = dataclasses.replace(plane_scene(res=16), environment=Environment.checked(image, rotation))
+    out = render(scene, RenderSettings(samples=16, light_samples=16, method="none"))
+    got = out.passes["Diffuse Direct"][..., :3].reshape(-1, 3).mean(axis=0)
+    d, area = directions_of_texels(*image.shape[:2])
+    light = EnvironmentLight(image, rotation)
+    world_dirs = d @ rotation  # map directions back to the world
+    cos = np.maximum(world_dirs[:, 2], 0.0)
+    expected = (light.radiance(world_dirs) * (cos * area)[:, None]).sum(axis=0) / np.pi
+    assert got == pytest.approx(expected, rel=0.02)
+
+
+def test_light_paths_carry_the_power_through_the_scene_disc():
+    light = EnvironmentLight(sky())
+    rng = np.random.default_rng(2)
+    origins, dirs, power = light.emit(400_000, rng, np.zeros(3), 2.0)
+    d, area = directions_of_texels(32, 64)
+    total = (light.radiance(d) * area[:, None]).sum(axis=0) * np.pi * 4.0  # L over the sphere x disc area
+    assert power.mean(axis=0) == pytest.approx(total, rel=0.03)
+    assert np.allclose(np.einsum("ij,ij->i", origins, dirs), -4.0)  # discs 2 R upstream, facing the travel
+
+
+def test_a_constant_world_keeps_its_cosine_sampling_and_broken_maps_light_nothing():
+    scene = plane_scene(world=(1.0, 1.0, 1.0))
+    assert type(LightSet(scene).world).__name__ == "WorldLight"  # a constant world needs no importance map
+    assert Environment.checked(np.zeros((0, 4, 3))) is None
+    assert Environment.checked(np.full((4, 8, 3), np.nan)) is None
+    env = Environment.checked(np.where(np.arange(8)[None, :, None] % 2, np.inf, 1.0) * np.ones((4, 8, 3)),
+                              rotation=np.full((3, 3), np.nan))
+    assert np.isfinite(env.image).all() and np.array_equal(env.rotation, np.eye(3))
+    out = render(dataclasses.replace(plane_scene(res=8), environment=env),
+                 RenderSettings(samples=4, light_samples=4, method="ir"))
+    for image in out.passes.values():
+        assert np.isfinite(image).all() and image.min() >= 0.0
