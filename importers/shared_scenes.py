@@ -9,8 +9,7 @@ that is one planar rectangle) becomes a Blender area light, one-sided like Mitsu
 P = L * pi * A (Cycles' area light radiance is P / (pi A)). An area emitter on any other mesh becomes an emissive
 material with Emission Strength = L (Cycles' emission strength is radiance), which Blender emits from both sides: a
 warning says so. Point and spot intensity I (W/sr) becomes P = 4 pi I. An ``envmap`` becomes an Environment Texture
-(rotated to match Mitsuba's lat-long convention); the Background colour under it holds the map's mean radiance,
-which is what VPL GI, lacking environment textures, uses (extraction warns about it).
+(rotated to match Mitsuba's lat-long convention); the Background colour under it holds the map's mean radiance.
 """
 from __future__ import annotations
 
@@ -384,8 +383,7 @@ def _world(scene, env: mitsuba.Environment | None, warnings: list) -> None:
     rows = (np.arange(h) + 0.5) / h * np.pi  # Blender's rows go bottom to top; sin is symmetric
     weight = np.sin(rows)[:, None]
     mean = (rgb * weight[..., None]).sum((0, 1)) / (weight.sum() * w)
-    # VPL GI reads the unlinked Color value times Strength: the map's mean radiance. Cycles reads the texture
-    # (the Color value is unused once linked) times Strength: the map itself. Both scaled by Mitsuba's scale.
+    # the unlinked Color value (unused once linked) keeps the map's mean radiance for anyone who unlinks the map
     bg.inputs["Color"].default_value = (*mean, 1.0)
     coords = nodes.new("ShaderNodeTexCoord")
     mapping = nodes.new("ShaderNodeMapping")
@@ -399,9 +397,6 @@ def _world(scene, env: mitsuba.Environment | None, warnings: list) -> None:
     links.new(tex.outputs["Color"], bg.inputs["Color"])
     bg.inputs["Strength"].default_value = env.scale
     world["vpl_gi_mean_radiance"] = [float(x) for x in mean * env.scale]
-    warnings.append(f"{env.element} (filename \"{os.path.basename(env.filename)}\"): Cycles uses the map; "
-                    f"VPL GI has no environment textures and uses its mean radiance "
-                    f"({', '.join(f'{x:.3g}' for x in mean * env.scale)}) through the Background colour")
 
 
 def _lights(scene, data: mitsuba.MitsubaScene) -> None:

@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from ..vpl_addon.core.camera import Camera, view_window
-from ..vpl_addon.core.scene import Materials, Scene
+from ..vpl_addon.core.scene import Environment, Materials, Scene
 from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -33,6 +33,27 @@ def _matrix(m) -> np.ndarray:
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def image_rgb(image) -> np.ndarray | None:
+    """(h,w,3) float32 linear RGB of a Blender image, row 0 at the bottom, NaN and infinities 0; None when it has
+    no pixels (a missing file, a zero-size image)."""
+    w, h = image.size
+    if not image.has_data and w * h == 0:
+        try:
+            image.pixels[0]  # loads the file if it exists
+        except (IndexError, RuntimeError):
+            pass
+        w, h = image.size
+    if w * h == 0 or image.channels == 0:
+        return None
+    px = np.empty(w * h * image.channels, np.float32)
+    image.pixels.foreach_get(px)
+    px = px.reshape(h, w, image.channels)
+    rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
+    if not image.is_float and image.colorspace_settings.name == "sRGB":
+        rgb = srgb_to_linear(rgb)
+    return np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
 
 
 class _MaterialTable:
@@ -58,25 +79,13 @@ class _MaterialTable:
         key = image.name_full
         if key in self.texture_index:
             return self.texture_index[key]
-        w, h = image.size
-        if not image.has_data and w * h == 0:
-            try:
-                image.pixels[0]  # loads the file if it exists
-            except (IndexError, RuntimeError):
-                pass
-            w, h = image.size
-        if w * h == 0:
+        rgb = image_rgb(image)
+        if rgb is None:
             self.warnings.append(f"material {material.name!r}: image {image.name!r} could not be loaded "
                                  f"({image.filepath or 'no file'}); using the Base Color value instead")
             self.texture_index[key] = -1
             return -1
-        px = np.empty(w * h * image.channels, np.float32)
-        image.pixels.foreach_get(px)
-        px = px.reshape(h, w, image.channels)
-        rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
-        if not image.is_float and image.colorspace_settings.name == "sRGB":
-            rgb = srgb_to_linear(rgb)
-        self.textures.append(np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0))
+        self.textures.append(rgb)
         self.texture_index[key] = len(self.textures) - 1
         return self.texture_index[key]
 
@@ -222,24 +231,68 @@ def _broken_light(obj, matrix, light) -> str | None:
     return None
 
 
-def _world(scene, warnings) -> np.ndarray:
+def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
+    """(constant radiance, environment map or None) of the scene's world."""
     world = scene.world
     if world is None:
-        return np.zeros(3)
+        return np.zeros(3), None
     tree = world.node_tree
     if tree is None:
-        return np.array(world.color[:3], np.float64)
+        return np.array(world.color[:3], np.float64), None
     outputs = [n for n in tree.nodes if n.type == "OUTPUT_WORLD"]
     active = [n for n in outputs if n.is_active_output] or outputs
     if not active or not active[0].inputs["Surface"].is_linked:
-        return np.zeros(3)
+        return np.zeros(3), None
     node = active[0].inputs["Surface"].links[0].from_node
     if node.type != "BACKGROUND":
         warnings.append(f"world {world.name!r}: surface {node.bl_label!r} is not supported; world is black")
-        return np.zeros(3)
-    if node.inputs["Color"].is_linked or node.inputs["Strength"].is_linked:
-        warnings.append(f"world {world.name!r}: textured background is not supported; using the constant colour")
-    return np.array(node.inputs["Color"].default_value[:3], np.float64) * node.inputs["Strength"].default_value
+        return np.zeros(3), None
+    color, strength = node.inputs["Color"], node.inputs["Strength"]
+    constant = np.array(color.default_value[:3], np.float64) * strength.default_value
+    if strength.is_linked:
+        warnings.append(f"world {world.name!r}: a linked Strength is not supported; using the constant colour")
+        return constant, None
+    if not color.is_linked:
+        return constant, None
+    source = color.links[0].from_node
+    if source.type != "TEX_ENVIRONMENT" or source.projection != "EQUIRECTANGULAR":
+        warnings.append(f"world {world.name!r}: Background Color from {source.bl_label!r} is not supported (only "
+                        f"an equirectangular Environment Texture); using the constant colour")
+        return constant, None
+    rgb = None if source.image is None else image_rgb(source.image)
+    if rgb is None:
+        name = "no image" if source.image is None else f"image {source.image.name!r} could not be loaded " \
+            f"({source.image.filepath or 'no file'})"
+        warnings.append(f"world {world.name!r}: Environment Texture {source.name!r} has {name}; using the constant "
+                        f"colour")
+        return constant, None
+    rotation = _environment_rotation(world, source, warnings)
+    environment = Environment.checked(rgb * strength.default_value, rotation)
+    return (constant if environment is None else np.zeros(3)), environment
+
+
+def _environment_rotation(world, texture, warnings) -> np.ndarray:
+    """The rotation taking a world direction to the Environment Texture's lookup direction: identity, or that of a
+    Mapping node (Point, Vector or Texture type) on its Vector input."""
+    vector = texture.inputs["Vector"]
+    if not vector.is_linked:
+        return np.eye(3)
+    mapping = vector.links[0].from_node
+    if mapping.type != "MAPPING" or mapping.vector_type not in {"POINT", "VECTOR", "TEXTURE"} or any(
+            s.is_linked for s in mapping.inputs if s.name != "Vector") or (
+            not mapping.inputs["Vector"].is_linked or mapping.inputs["Vector"].links[0].from_socket.name != "Generated"):
+        warnings.append(f"world {world.name!r}: the Environment Texture's Vector comes from {mapping.bl_label!r}; "
+                        f"only Texture Coordinate > Generated through a Mapping node is supported, so the map is "
+                        f"not rotated")
+        return np.eye(3)
+    from mathutils import Euler
+    rotation = _matrix(Euler(tuple(mapping.inputs["Rotation"].default_value), "XYZ").to_matrix())
+    scale = np.array(mapping.inputs["Scale"].default_value)
+    location = mapping.inputs.get("Location")  # a Vector-type Mapping has none
+    if not np.allclose(scale, scale[0]) or (location is not None and np.any(np.array(location.default_value) != 0)):
+        warnings.append(f"world {world.name!r}: Mapping {mapping.name!r}: only its rotation is used (location and "
+                        f"non-uniform scale are not)")
+    return rotation if mapping.vector_type == "POINT" else rotation.T
 
 
 def camera_of(scene) -> Camera:
@@ -297,7 +350,8 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
     cycles = getattr(depsgraph.scene, "cycles", None)  # render settings: the original, not an evaluated copy
     bounces = min(cycles.max_bounces, cycles.diffuse_bounces) if cycles is not None else 8
+    world, environment = _world(scene, warnings)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
-                        object_id=object_id, object_names=list(names) or ["none"], world=_world(scene, warnings),
-                        textures=materials.textures, max_bounces=bounces)
+                        object_id=object_id, object_names=list(names) or ["none"], world=world,
+                        environment=environment, textures=materials.textures, max_bounces=bounces)
     return built, warnings
