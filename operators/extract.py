@@ -278,9 +278,10 @@ def _environment_rotation(world, texture, warnings) -> np.ndarray:
     if not vector.is_linked:
         return np.eye(3)
     mapping = vector.links[0].from_node
-    if mapping.type != "MAPPING" or mapping.vector_type not in {"POINT", "VECTOR", "TEXTURE"} or any(
-            s.is_linked for s in mapping.inputs if s.name != "Vector") or (
-            not mapping.inputs["Vector"].is_linked or mapping.inputs["Vector"].links[0].from_socket.name != "Generated"):
+    source = mapping.inputs["Vector"].links[0].from_socket.name if mapping.type == "MAPPING" and \
+        mapping.inputs["Vector"].is_linked else None
+    if source != "Generated" or mapping.vector_type not in {"POINT", "VECTOR", "TEXTURE"} or any(
+            s.is_linked for s in mapping.inputs if s.name != "Vector"):
         warnings.append(f"world {world.name!r}: the Environment Texture's Vector comes from {mapping.bl_label!r}; "
                         f"only Texture Coordinate > Generated through a Mapping node is supported, so the map is "
                         f"not rotated")
