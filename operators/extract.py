@@ -293,7 +293,7 @@ def _environment_rotation(world, texture, warnings) -> np.ndarray:
     if not np.allclose(scale, scale[0]) or (location is not None and np.any(np.array(location.default_value) != 0)):
         warnings.append(f"world {world.name!r}: Mapping {mapping.name!r}: only its rotation is used (location and "
                         f"non-uniform scale are not)")
-    return rotation if mapping.vector_type == "POINT" else rotation.T
+    return rotation.T if mapping.vector_type == "TEXTURE" else rotation  # Texture maps by the inverse
 
 
 def camera_of(scene) -> Camera:
