@@ -42,7 +42,9 @@ class EnvironmentLight(Light):
         self.texel_prob = weights / weights.sum()  # (h, w) probability of each texel
         rows = self.texel_prob.sum(axis=1)
         self.row_cdf = _cdf(rows)
-        self.col_cdf = np.stack([_cdf(r) for r in self.texel_prob])
+        # each row's CDF over its texels, shifted by the row's index and laid end to end: one increasing array, so
+        # a row's column is found by one search for row + u (no per-sample copy of the row)
+        self.col_cdf = (np.stack([_cdf(r) for r in self.texel_prob]) + np.arange(h)[:, None]).ravel()
         # mean luminance over the sphere of directions, for choosing between the world and the other lights
         self.mean_luminance = float((self.image @ LUMINANCE * sin[:, None]).sum() / (w * sin.sum()))
 
@@ -74,13 +76,9 @@ class EnvironmentLight(Light):
     def sample(self, u1, u2):
         """Directions (N,3) drawn with ``pdf``, from uniform numbers u1, u2 (N,)."""
         h, wd = self.image.shape[:2]
-        row = sample_cdf(self.row_cdf, u1)
-        lo = np.where(row > 0, self.row_cdf[np.maximum(row - 1, 0)], 0.0)
-        fv = np.clip((u1 - lo) / np.maximum(self.row_cdf[row] - lo, 1e-300), 0.0, 1.0)
-        cdf = self.col_cdf[row]
-        col = np.minimum((cdf < u2[:, None]).sum(axis=1), wd - 1)
-        lo = np.where(col > 0, cdf[np.arange(len(col)), np.maximum(col - 1, 0)], 0.0)
-        fu = np.clip((u2 - lo) / np.maximum(cdf[np.arange(len(col)), col] - lo, 1e-300), 0.0, 1.0)
+        row, fv = _invert(self.row_cdf, u1)
+        flat, fu = _invert(self.col_cdf, row + u2)
+        col = np.minimum(flat - row * wd, wd - 1)
         u, v = (col + fu) / wd, (row + fv) / h
         theta, phi = np.pi * (1.0 - v), 2.0 * np.pi * (0.5 - u)
         d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
@@ -114,6 +112,13 @@ def _reach(lum):
     padded = np.concatenate([padded[:, -1:], padded, padded[:, :1]], axis=1)
     h, w = lum.shape
     return np.max([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)], axis=0)
+
+
+def _invert(cdf, x):
+    """(bin of x under the increasing ``cdf``, where x falls within that bin in [0, 1])."""
+    index = sample_cdf(cdf, x)
+    lo = np.where(index > 0, cdf[np.maximum(index - 1, 0)], 0.0)
+    return index, np.clip((x - lo) / np.maximum(cdf[index] - lo, 1e-300), 0.0, 1.0)
 
 
 def _cdf(weights):
