@@ -11,8 +11,9 @@ import math
 import numpy as np
 
 from ..vpl_addon.core.camera import Camera, view_window
-from ..vpl_addon.core.scene import Environment, Materials, Scene
+from ..vpl_addon.core.scene import Environment, Scene
 from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
+from .shader_nodes import MaterialTable, image_pixels
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
@@ -31,122 +32,8 @@ def _matrix(m) -> np.ndarray:
     return np.array([list(row) for row in m], np.float64)
 
 
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
-def image_rgb(image) -> np.ndarray | None:
-    """(h,w,3) float32 linear RGB of a Blender image, row 0 at the bottom, NaN and infinities 0; None when it has
-    no pixels (a missing file, a zero-size image)."""
-    w, h = image.size
-    if not image.has_data and w * h == 0:
-        try:
-            image.pixels[0]  # loads the file if it exists
-        except (IndexError, RuntimeError):
-            pass
-        w, h = image.size
-    if w * h == 0 or image.channels == 0:
-        return None
-    px = np.empty(w * h * image.channels, np.float32)
-    image.pixels.foreach_get(px)
-    px = px.reshape(h, w, image.channels)
-    rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
-    if not image.is_float and image.colorspace_settings.name == "sRGB":
-        rgb = srgb_to_linear(rgb)
-    return np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
-
-
-class _MaterialTable:
-    """Principled BSDF parameters of every material met, in first-seen order; row 0 is the fallback grey."""
-
-    def __init__(self, warnings: list[str]):
-        self.rows: list[dict] = []
-        self.index: dict[str, int] = {}
-        self.textures: list[np.ndarray] = []
-        self.texture_index: dict[str, int] = {}
-        self.warnings = warnings
-
-    def id_of(self, material) -> int:
-        if material is None:
-            return 0
-        key = material.name_full
-        if key not in self.index:
-            self.rows.append(self._read(material))
-            self.index[key] = len(self.rows)
-        return self.index[key]
-
-    def _texture(self, image, material) -> int:
-        key = image.name_full
-        if key in self.texture_index:
-            return self.texture_index[key]
-        rgb = image_rgb(image)
-        if rgb is None:
-            self.warnings.append(f"material {material.name!r}: image {image.name!r} could not be loaded "
-                                 f"({image.filepath or 'no file'}); using the Base Color value instead")
-            self.texture_index[key] = -1
-            return -1
-        self.textures.append(rgb)
-        self.texture_index[key] = len(self.textures) - 1
-        return self.texture_index[key]
-
-    def _read(self, material) -> dict:
-        row = {"name": material.name}
-        surface = _surface_node(material)
-        if surface is None:
-            row["base_color"] = tuple(material.diffuse_color)[:3]
-            row["roughness"] = material.roughness
-            row["metallic"] = material.metallic
-            return row
-        if surface.type == "BSDF_PRINCIPLED":
-            inputs = surface.inputs
-            row["base_color"] = tuple(inputs["Base Color"].default_value)[:3]
-            row["roughness"] = inputs["Roughness"].default_value
-            row["metallic"] = inputs["Metallic"].default_value
-            row["specular_tint"] = tuple(inputs["Specular Tint"].default_value)[:3]
-            strength = inputs["Emission Strength"].default_value
-            row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
-            link = inputs["Base Color"].links[0] if inputs["Base Color"].is_linked else None
-            if link is not None:
-                if link.from_node.type == "TEX_IMAGE" and link.from_node.image is not None:
-                    row["texture"] = self._texture(link.from_node.image, material)
-                else:
-                    self.warnings.append(f"material {material.name!r}: Base Color input from a "
-                                         f"{link.from_node.bl_label!r} node is not supported; using its value")
-            for name in ("Roughness", "Metallic", "Specular Tint", "Emission Color", "Emission Strength"):
-                if inputs[name].is_linked:
-                    self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; "
-                                         f"using its value")
-            return row
-        if surface.type == "EMISSION":
-            strength = surface.inputs["Strength"].default_value
-            row["base_color"] = (0.0, 0.0, 0.0)
-            row["emission"] = tuple(c * strength for c in surface.inputs["Color"].default_value[:3])
-            return row
-        if surface.type == "BSDF_DIFFUSE":
-            row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
-            row["roughness"] = 1.0
-            return row
-        self.warnings.append(f"material {material.name!r}: surface shader {surface.bl_label!r} is not supported; "
-                             f"rendered as grey diffuse")
-        return {"name": material.name}
-
-    def build(self) -> Materials:
-        return Materials.make(self.rows)
-
-
-def _surface_node(material):
-    """The shader node feeding the active material output's Surface, or None without nodes."""
-    tree = material.node_tree
-    if tree is None:
-        return None
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
-    active = [n for n in outputs if n.is_active_output] or outputs
-    if not active or not active[0].inputs["Surface"].is_linked:
-        return None
-    return active[0].inputs["Surface"].links[0].from_node
-
-
-def _mesh_arrays(obj, matrix, materials: _MaterialTable, object_index: int):
+def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warnings: list[str]):
+    """(triangles, normals, uvs, material ids, object ids, tangents or None) of a geometry object in world space."""
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -163,20 +50,69 @@ def _mesh_arrays(obj, matrix, materials: _MaterialTable, object_index: int):
         corner_n = _array(mesh.corner_normals, "vector", 3).astype(np.float64) @ normal_matrix.T
         triangles = world[vidx]
         normals = corner_n[lidx]
-        if np.linalg.det(m[:3, :3]) < 0:  # mirrored: keep counter-clockwise = front
+        mirrored = np.linalg.det(m[:3, :3]) < 0
+        if mirrored:  # keep counter-clockwise = front
             triangles = triangles[:, ::-1]
             normals = normals[:, ::-1]
             lidx = lidx[:, ::-1]
-        if mesh.uv_layers.active is not None:
-            uvs = _array(mesh.uv_layers.active.data, "uv", 2)[lidx]
-        else:
-            uvs = np.zeros((len(tris), 3, 2), np.float32)
         slots = [materials.id_of(s.material) for s in obj.material_slots] or [0]
         slot_ids = np.array(slots, np.int32)
         mat = slot_ids[np.clip(mat_local, 0, len(slot_ids) - 1)]
-        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32)
+        uvs = _uvs(obj, mesh, materials, slots, mat, lidx, warnings)
+        tangents = None
+        if any(materials.normal_mapped(i) for i in slots):
+            tangents = _tangents(obj, mesh, materials, slots, m, mirrored, warnings)
+            tangents = None if tangents is None else tangents[lidx]
+        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32), tangents
     finally:
         obj.to_mesh_clear()
+
+
+def _uv_layer(mesh, name: str | None):
+    """The UV layer named ``name``, or the one rendering uses by default (None if the mesh has none)."""
+    layers = mesh.uv_layers
+    if name is not None and name in layers:
+        return layers[name]
+    return next((l for l in layers if l.active_render), layers.active)
+
+
+def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warnings) -> np.ndarray:
+    """(T,3,2) UVs: each material's triangles in the UV map its textures name."""
+    uvs = np.zeros((len(lidx), 3, 2), np.float32)
+    for i in sorted(set(slots)):
+        name = materials.uv_map.get(i)
+        layer = _uv_layer(mesh, name)
+        if layer is None:
+            if materials.images.get(i):
+                warnings.append(f"object {obj.name!r}: it has no UV map, so material "
+                                f"{materials.rows[i - 1]['name']!r} reads image {materials.images[i][0]!r} at UV "
+                                f"(0, 0)")
+            continue
+        if name is not None and layer.name != name:
+            warnings.append(f"object {obj.name!r}: no UV map {name!r} (material {materials.rows[i - 1]['name']!r}); "
+                            f"using {layer.name!r}")
+        rows = mat == i
+        uvs[rows] = _array(layer.data, "uv", 2)[lidx[rows]]
+    return uvs
+
+
+def _tangents(obj, mesh, materials: MaterialTable, slots: list[int], m: np.ndarray, mirrored: bool, warnings):
+    """(loops,4) MikkTSpace tangents (world xyz, bitangent sign) of the UV map of the first normal-mapped
+    material, as Cycles' Normal Map node uses them; None when Blender cannot make them (the engine then derives
+    them per triangle from the UVs)."""
+    name = next(materials.uv_map.get(i) for i in slots if materials.normal_mapped(i))
+    layer = _uv_layer(mesh, name)
+    if layer is None:
+        return None
+    try:
+        mesh.calc_tangents(uvmap=layer.name)
+    except RuntimeError as e:  # n-gons: Blender makes tangents for triangles and quads only
+        warnings.append(f"object {obj.name!r}: no tangents for its normal map ({e}); using per-triangle ones")
+        return None
+    t = _array(mesh.loops, "tangent", 3).astype(np.float64) @ m[:3, :3].T
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    sign = _array(mesh.loops, "bitangent_sign", 1).astype(np.float64) * (-1.0 if mirrored else 1.0)
+    return np.concatenate([t, sign[:, None]], axis=1)
 
 
 def _light(obj, matrix, warnings):
@@ -259,7 +195,7 @@ def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
         warnings.append(f"world {world.name!r}: Background Color from {source.bl_label!r} is not supported (only "
                         f"an equirectangular Environment Texture); using the constant colour")
         return constant, None
-    rgb = None if source.image is None else image_rgb(source.image)
+    rgb = None if source.image is None else image_pixels(source.image)
     if rgb is None:
         name = "no image" if source.image is None else f"image {source.image.name!r} could not be loaded " \
             f"({source.image.filepath or 'no file'})"
@@ -327,7 +263,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     scene = depsgraph.scene_eval
     warnings: list[str] = []
     camera = camera_of(depsgraph.scene)
-    materials = _MaterialTable(warnings)
+    materials = MaterialTable(warnings)
     parts, lights, names = [], [], {}
     for inst in depsgraph.object_instances:
         obj = inst.object
@@ -341,11 +277,16 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
                     warnings.append(f"light {obj.name!r}: {broken}; it gives no light")
                 lights.append(light)
         elif obj.type in GEOMETRY_TYPES:
-            arrays = _mesh_arrays(obj, inst.matrix_world, materials, names.setdefault(obj.name, len(names)))
+            arrays = _mesh_arrays(obj, inst.matrix_world, materials, names.setdefault(obj.name, len(names)),
+                                  warnings)
             if arrays is not None:
                 parts.append(arrays)
+    tangents = None
     if parts:
-        triangles, normals, uvs, material, object_id = (np.concatenate(a) for a in zip(*parts))
+        triangles, normals, uvs, material, object_id = (np.concatenate(a) for a in list(zip(*parts))[:5])
+        if any(p[5] is not None for p in parts):  # the rest are made from UVs by Scene.build
+            tangents = np.concatenate([np.full((len(p[0]), 3, 4), np.nan) if p[5] is None else p[5]
+                                       for p in parts])
     else:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
@@ -354,5 +295,6 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     world, environment = _world(scene, warnings)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(names) or ["none"], world=world,
-                        environment=environment, textures=materials.textures, max_bounces=bounces)
+                        environment=environment, textures=materials.textures, tangents=tangents,
+                        max_bounces=bounces)
     return built, warnings

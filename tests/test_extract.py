@@ -115,8 +115,9 @@ def test_principled_textured_emissive_and_unsupported_materials(bpy):
     assert np.allclose(m.base_color[ids["Plain"]], [0.2, 0.4, 0.6]) and m.roughness[ids["Plain"]] == pytest.approx(0.3)
     assert np.allclose(m.diffuse_albedo[ids["Plain"]], np.array([0.2, 0.4, 0.6]) * 0.75)
     assert np.allclose(m.emission[ids["Glow"]], [4, 2, 0])
-    tex_id = m.texture[ids["Tex"]]
-    assert tex_id >= 0 and np.allclose(scene.textures[tex_id], ((0.5 + 0.055) / 1.055) ** 2.4, atol=0.01)
+    tex_id = m.mapped("base_color")[ids["Tex"]]
+    assert tex_id >= 0 and np.allclose(scene.textures[m.maps[tex_id].image], ((0.5 + 0.055) / 1.055) ** 2.4,
+                                       atol=0.01)
     assert np.allclose(m.base_color[ids["Glassy"]], 0.8)
     assert [w for w in warnings if "'Glassy'" in w and "Glass" in w]
 

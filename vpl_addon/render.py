@@ -209,7 +209,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
                 if lobe is not None:
-                    shiny = gbuf.first(surf.metallic > 0.0, gather_spp)
+                    shiny = gbuf.first(surf.glossy, gather_spp)
                     if sampled is None:
                         reflected = summed(surf.take(shiny), lobe.take(shiny), gbuf.pixel_of_hit[shiny], rng)
                     else:

@@ -4,7 +4,8 @@ Everything downstream of extraction reads only this. It is built either from Ble
 or directly in code (tests, stress scenes). ``Scene.build`` sanitises the input on purpose: triangles with
 non-finite corners or zero area are dropped (and counted per object so the caller can name them), shading normals
 that are missing, non-finite or zero fall back to the geometric normal, non-finite UVs become 0, non-finite or
-negative texels become 0 and a material whose texture does not exist uses its Base Color.
+negative texels become 0 and a material input whose texture does not exist uses the input's value; tangents (for
+normal maps) that are missing or unusable are made from the triangle's UVs.
 """
 from __future__ import annotations
 
@@ -19,23 +20,64 @@ if TYPE_CHECKING:  # an annotation only: the core layer imports nothing above it
     from ..lights import Light
 
 
+INPUTS = ("base_color", "roughness", "metallic", "emission", "alpha", "normal")  # inputs an image can drive
+
+
+@dataclass(frozen=True)
+class TextureMap:
+    """An image texture feeding one material input (Blender's Image Texture node and what lies between it and the
+    input): which image and channel, through which UV transform, times which factor.
+
+    The value at a UV is ``factor`` x the image's colour (``channel`` -1), one channel (0-2: R, G, B as a Separate
+    Color node gives them, 3: the image's alpha) or, for a colour feeding a scalar input, its luminance. For the
+    ``normal`` input the colour is a tangent-space normal (Normal Map node) and ``strength`` its Strength."""
+
+    image: int  # index into Scene.textures
+    channel: int = -1  # -1 the colour, 0..2 one channel, 3 the alpha
+    factor: tuple = (1.0, 1.0, 1.0)  # multiplies the value (glTF factors, a Multiply by a constant)
+    uv: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # (a, b, c, d, e, f): u' = a u + b v + c, v' = d u + e v + f
+    extension: str = "REPEAT"  # Image Texture extension: REPEAT, EXTEND or CLIP
+    closest: bool = False  # interpolation Closest instead of Linear
+    strength: float = 1.0  # Normal Map strength
+
+
 @dataclass
 class Materials:
-    """Material table indexed by the per-triangle material id (row 0 is the fallback grey diffuse)."""
+    """Material table indexed by the per-triangle material id (row 0 is the fallback grey diffuse).
+
+    Values are the inputs' own; ``maps`` are the image textures that replace them where an input is linked
+    (``map_of[input]`` indexes ``maps`` per material, -1 for none)."""
 
     names: list[str]
     base_color: np.ndarray  # (M,3) linear RGB albedo of the diffuse lobe
     roughness: np.ndarray  # (M,)
     metallic: np.ndarray  # (M,)
     emission: np.ndarray  # (M,3) emitted radiance, W/(m^2 sr): Emission Color x Strength
-    texture: np.ndarray  # (M,) int index into Scene.textures of the base colour, -1 for none
-    specular_tint: np.ndarray  # (M,3) F82 tint of the metallic lobe (white: plain Schlick Fresnel)
+    specular_tint: np.ndarray  # (M,3) F82 tint of the metallic lobe and tint of the dielectric layer's F0
+    ior: np.ndarray  # (M,) IOR of the dielectric specular layer
+    specular: np.ndarray  # (M,) Specular IOR Level (0: no dielectric layer, 0.5: the IOR's own reflectance)
+    alpha: np.ndarray  # (M,) coverage: 1 opaque, 0 a hole
+    maps: list[TextureMap] = field(default_factory=list)
+    map_of: dict[str, np.ndarray] = field(default_factory=dict)  # input -> (M,) int index into maps, -1 none
 
     @staticmethod
     def make(rows: list[dict]) -> "Materials":
-        """Rows of {name, base_color, roughness, metallic, emission, texture, specular_tint}; missing keys take
-        defaults."""
+        """Rows of {name, base_color, roughness, metallic, emission, specular_tint, ior, specular, alpha, maps}
+        (``maps``: input name -> TextureMap; ``texture``: an image index for Base Color alone); missing keys take
+        defaults: a grey diffuse without a specular layer."""
         rows = [{"name": "VPL fallback grey"}] + list(rows)
+        maps: list[TextureMap] = []
+        map_of = {name: np.full(len(rows), -1, np.int32) for name in INPUTS}
+        for i, r in enumerate(rows):
+            given = dict(r.get("maps", {}))
+            if r.get("texture", -1) >= 0:
+                given.setdefault("base_color", TextureMap(int(r["texture"])))
+            for name, tmap in given.items():
+                if name not in map_of:
+                    raise ValueError(f"material {r['name']!r}: no input {name!r} takes a texture ({INPUTS})")
+                if tmap not in maps:
+                    maps.append(tmap)
+                map_of[name][i] = maps.index(tmap)
 
         def col(key, default, dtype=np.float32):
             return np.array([r.get(key, default) for r in rows], dtype=dtype)
@@ -46,17 +88,28 @@ class Materials:
             roughness=col("roughness", 0.5),
             metallic=col("metallic", 0.0),
             emission=col("emission", (0.0, 0.0, 0.0)).reshape(-1, 3),
-            texture=col("texture", -1, np.int32),
             specular_tint=col("specular_tint", (1.0, 1.0, 1.0)).reshape(-1, 3),
+            ior=col("ior", 1.5),
+            specular=col("specular", 0.0),
+            alpha=col("alpha", 1.0),
+            maps=maps, map_of=map_of,
         )
-        for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint):
+        for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha):
             np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
+        np.nan_to_num(m.ior, copy=False, nan=1.5, posinf=1.5, neginf=1.5)
         np.clip(m.base_color, 0.0, 1.0, out=m.base_color)
         np.clip(m.roughness, 0.0, 1.0, out=m.roughness)
         np.clip(m.metallic, 0.0, 1.0, out=m.metallic)
         np.clip(m.specular_tint, 0.0, 1.0, out=m.specular_tint)
+        np.clip(m.alpha, 0.0, 1.0, out=m.alpha)
+        np.clip(m.ior, 1e-3, 1e3, out=m.ior)
+        np.maximum(m.specular, 0.0, out=m.specular)
         np.maximum(m.emission, 0.0, out=m.emission)
         return m
+
+    def mapped(self, name: str) -> np.ndarray:
+        """(M,) index into ``maps`` of the texture driving input ``name`` per material, -1 for its value."""
+        return self.map_of.get(name, np.full(len(self.names), -1, np.int32))
 
     @property
     def diffuse_albedo(self) -> np.ndarray:
@@ -65,8 +118,10 @@ class Materials:
 
     @property
     def glossy(self) -> bool:
-        """Whether any material has a metallic (GGX) lobe: without one, nothing glossy is computed."""
-        return bool((self.metallic > 0.0).any())
+        """Whether any material has a glossy (GGX) lobe, metallic or the dielectric specular layer: without one,
+        nothing glossy is computed."""
+        return bool((self.metallic > 0.0).any() | (self.mapped("metallic") >= 0).any()
+                    | ((self.specular > 0.0) & (self.ior != 1.0)).any())
 
 
 @dataclass
@@ -105,14 +160,15 @@ class Scene:
     camera: Camera
     world: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))  # background radiance RGB
     environment: Environment | None = None  # the world as a map (then ``world`` is not used)
-    textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3) float32 linear, row 0 = bottom (v = 0)
+    textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3|4) float32 linear, row 0 = bottom (v = 0)
+    tangents: np.ndarray | None = None  # (T,3,4) float32 per-corner tangent and bitangent sign, for normal maps
     dropped: dict[str, int] = field(default_factory=dict)  # object name -> triangles dropped by build()
     max_bounces: int = 8  # diffuse bounce limit of light paths (Cycles' min(max_bounces, diffuse_bounces))
 
     @staticmethod
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
               object_id=None, object_names=None, world=(0.0, 0.0, 0.0), environment=None, textures=(),
-              max_bounces=8) -> "Scene":
+              tangents=None, max_bounces=8) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         n = len(tri)
@@ -121,6 +177,7 @@ class Scene:
         object_names = list(object_names or ["object"])
         normals = None if normals is None else np.asarray(normals, np.float64).reshape(n, 3, 3)
         uvs = np.zeros((n, 3, 2)) if uvs is None else np.asarray(uvs, np.float64).reshape(n, 3, 2)
+        tangents = None if tangents is None else np.asarray(tangents, np.float64).reshape(n, 3, 4)
 
         ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         area2 = np.linalg.norm(ng, axis=1)
@@ -131,6 +188,7 @@ class Scene:
         for oid, count in zip(*np.unique(object_id[~keep], return_counts=True)):
             dropped[object_names[oid] if 0 <= oid < len(object_names) else str(oid)] = int(count)
         tri, ng, area2, uvs, material, object_id = (a[keep] for a in (tri, ng, area2, uvs, material, object_id))
+        tangents = None if tangents is None else tangents[keep]
         ng = ng / area2[:, None]
         if normals is None:
             sn = np.repeat(ng[:, None, :], 3, axis=1)
@@ -145,11 +203,11 @@ class Scene:
         material = np.where((material >= 0) & (material < len(materials.names)), material, 0).astype(np.int32)
         textures = [np.maximum(np.nan_to_num(np.asarray(t, np.float32), nan=0.0, posinf=0.0), 0.0)
                     for t in textures]
-        tex = materials.texture
-        usable = np.array([i < 0 or (i < len(textures) and textures[i].ndim == 3 and textures[i].size > 0)
-                           for i in tex], bool)
-        if not usable.all():  # a copy: the caller's table stays as it was
-            materials = replace(materials, texture=np.where(usable, tex, -1).astype(np.int32))
+        materials = _usable_maps(materials, textures)
+        if (materials.mapped("normal") >= 0).any():
+            tangents = _tangents(tri, ng, uvs, tangents)
+        else:
+            tangents = None
 
         return Scene(triangles=tri.astype(np.float32), normals=sn.astype(np.float32), uvs=uvs.astype(np.float32),
                      material=material, object_id=object_id.astype(np.int32), object_names=object_names,
@@ -158,6 +216,7 @@ class Scene:
                      environment=None if environment is None else Environment.checked(environment.image,
                                                                                        environment.rotation),
                      textures=textures, dropped=dropped,
+                     tangents=None if tangents is None else tangents.astype(np.float32),
                      max_bounces=max(0, int(max_bounces)))
 
     @property
@@ -183,3 +242,42 @@ class Scene:
             return -np.ones(3), np.ones(3)
         pts = self.triangles.reshape(-1, 3).astype(np.float64)
         return pts.min(axis=0), pts.max(axis=0)
+
+
+def _usable_maps(materials: Materials, textures: list[np.ndarray]) -> Materials:
+    """The table with every texture map whose image is missing, empty or without the channel it reads unlinked
+    (the input keeps its value); a copy when anything changes, so the caller's table stays as it was."""
+    def usable(t: TextureMap) -> bool:
+        if not 0 <= t.image < len(textures):
+            return False
+        image = textures[t.image]
+        return image.ndim == 3 and image.size > 0 and t.channel < image.shape[2]
+
+    ok = np.array([usable(t) for t in materials.maps] + [True], bool)  # index -1 stays -1
+    if ok.all():
+        return materials
+    return replace(materials, map_of={name: np.where(ok[ids], ids, -1).astype(np.int32)
+                                      for name, ids in materials.map_of.items()})
+
+
+def _tangents(tri: np.ndarray, ng: np.ndarray, uvs: np.ndarray, given: np.ndarray | None) -> np.ndarray:
+    """(T,3,4) per-corner tangents (xyz, bitangent sign): the given ones where they are finite and non-zero, else
+    the triangle's own UV tangent dP/du (and the sign of its UV winding); triangles whose UVs are degenerate get any
+    tangent perpendicular to the face."""
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    d1, d2 = uvs[:, 1] - uvs[:, 0], uvs[:, 2] - uvs[:, 0]
+    det = d1[:, 0] * d2[:, 1] - d2[:, 0] * d1[:, 1]
+    t = (e1 * d2[:, 1:2] - e2 * d1[:, 1:2]) * np.where(det < 0.0, -1.0, 1.0)[:, None]  # along dP/du
+    length = np.linalg.norm(t, axis=1)
+    fallback = np.where(np.abs(ng[:, :1]) < 0.9, np.cross(ng, [1.0, 0.0, 0.0]), np.cross(ng, [0.0, 1.0, 0.0]))
+    ok = (np.abs(det) > 1e-20) & (length > 1e-20)
+    t = np.where(ok[:, None], t / np.maximum(length, 1e-300)[:, None], fallback / np.linalg.norm(
+        fallback, axis=1, keepdims=True))
+    own = np.concatenate([t, np.where(det < 0.0, -1.0, 1.0)[:, None]], axis=1)
+    own = np.repeat(own[:, None, :], 3, axis=1)
+    if given is None:
+        return own
+    good = np.isfinite(given).all(axis=2) & (np.linalg.norm(given[..., :3], axis=2) > 1e-12)
+    given = np.where(good[..., None], given, own)
+    given[..., 3] = np.where(given[..., 3] < 0.0, -1.0, 1.0)
+    return given

@@ -1,5 +1,7 @@
-"""The glossy lobe of the Principled BSDF's metallic part, as Cycles evaluates it: GGX with F82-tint Fresnel and
-multiple-scattering energy compensation.
+"""The glossy lobes of the Principled BSDF as Cycles evaluates them (``svm/closure.h``): the metallic lobe (GGX with
+F82-tint Fresnel) and the dielectric specular layer (GGX with the real dielectric Fresnel), both with
+multiple-scattering energy compensation. They share the distribution, masking and sampling; only the Fresnel
+differs, so one lobe (``GlossyLobe``) carries their sum.
 
 - Distribution and masking (Walter et al. 2007; Heitz 2014, eq. 72): D(h) = a^2 / (pi (1 + (a^2 - 1) cos^2)^2),
   Lambda(w) = (sqrt(1 + a^2 tan^2) - 1) / 2, G2 = 1 / (1 + Lambda(v) + Lambda(l)); a = roughness^2.
@@ -12,7 +14,14 @@ multiple-scattering energy compensation.
   scaled by 1 + F_ms (1 - E(mu)) / E(mu) with F_ms = F_avg E_avg / (1 - F_avg (1 - E_avg)), E the single-scattering
   albedo at the view angle and E_avg its cosine-weighted mean. Cycles' ``Glossy Color`` is the lobe's estimated
   albedo (E + F_ms (1 - E)) mix(F0, 1, s(mu)), with s the lobe-averaged Schlick weight (1 - v.h)^5.
-  E, E_avg and s are integrated here per roughness (``albedo_table``) instead of read from Cycles' tables.
+  E, E_avg and s are integrated here on a grid of roughnesses (``albedo_table``, interpolated, so textured
+  roughness costs nothing more) instead of read from Cycles' tables.
+- Dielectric specular layer (Cycles' generalized Schlick Fresnel with exponent -eta): F = mix(F0 tint, 1, s) with
+  s = (F_real(v.h, eta) - F0_real) / (1 - F0_real), F_real the unpolarised Fresnel reflectance of a smooth
+  dielectric (Walter et al. 2007, eq. 22). Specular IOR Level l != 0.5 scales F0 by 2 l and sets eta from it
+  (``specular_layer``). Its compensation uses F_ss = mix(F0 tint, 1, s(F_ss_real)), F_ss_real the cosine-weighted
+  mean of F_real; its albedo A = (E + F_ms (1 - E)) mix(F0 tint, 1, s_bar), s_bar the lobe average of s, is its
+  Glossy Color and leaves 1 - max(A) to the diffuse lobe below it (``layer_albedo``).
 
 Directions: ``v`` toward the viewer, ``l`` toward the light, ``n`` the shading normal, all unit (K,3). ``value`` is
 f(v, l) cos(theta_l) per colour channel, without the material's metallic weight.
@@ -29,7 +38,8 @@ from ..core.sampling import concentric_disk, dot, orthonormal_basis, stratified_
 MIN_ALPHA = 1e-3  # sharper lobes are treated as this rough (Cycles switches to a mirror below a^2 = 5e-7)
 MU_BAR = 1.0 / 7.0
 TABLE_MU = 32  # view-angle steps of the albedo tables
-TABLE_SAMPLES = 64  # per side: 64 x 64 stratified visible normals per table entry
+TABLE_ROUGHNESS = 33  # roughness steps of the tables, 0 to 1
+TABLE_SAMPLES = 32  # per side: 32 x 32 stratified visible normals per table entry
 
 
 def alpha(roughness: np.ndarray) -> np.ndarray:
@@ -50,6 +60,44 @@ def fresnel(f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """(K,3) F82-tint reflectance at cos ``mu`` between the view and the microfacet normal."""
     mu = np.clip(mu, 0.0, 1.0)
     return np.clip(schlick(f0, mu) - b * (mu * (1.0 - mu) ** 6)[:, None], 0.0, 1.0)
+
+
+def f0_from_ior(eta: np.ndarray) -> np.ndarray:
+    return ((eta - 1.0) / (eta + 1.0)) ** 2
+
+
+def dielectric_fresnel(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
+    """Unpolarised reflectance of a smooth dielectric interface of relative IOR ``eta`` at cosine ``cos_i``
+    (Walter et al. 2007, eq. 22); 1 under total internal reflection (eta < 1)."""
+    c = np.abs(cos_i)
+    g2 = eta * eta - 1.0 + c * c
+    g = np.sqrt(np.maximum(g2, 0.0))
+    a = (g - c) / np.maximum(g + c, 1e-300)
+    b = (c * (g + c) - 1.0) / np.maximum(c * (g - c) + 1.0, 1e-300)
+    return np.where(g2 > 0.0, np.clip(0.5 * a * a * (1.0 + b * b), 0.0, 1.0), 1.0)
+
+
+def specular_layer(ior: np.ndarray, level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(F0, eta) of the Principled BSDF's dielectric layer from its IOR and Specular IOR Level, as Cycles adjusts
+    them: at level 0.5 the IOR's own F0; otherwise F0 x 2 level and the eta that has it. eta 1: no layer."""
+    ior = np.asarray(ior, np.float64)
+    level = np.maximum(np.asarray(level, np.float64), 0.0)
+    f0 = np.minimum(f0_from_ior(ior) * np.where(level == 0.5, 1.0, 2.0 * level), 0.999)
+    root = np.sqrt(f0)
+    eta = (1.0 + root) / (1.0 - root)
+    eta = np.where(level == 0.5, ior, np.where(ior < 1.0, 1.0 / eta, eta))
+    return f0, np.where(f0 > 0.0, eta, 1.0)
+
+
+def _interpolation(eta: np.ndarray, f0: np.ndarray, real: np.ndarray) -> np.ndarray:
+    """s of the generalized Schlick Fresnel: where the real reflectance sits between F0_real and 1."""
+    return np.clip((real - f0) / np.maximum(1.0 - f0, 1e-12), 0.0, 1.0)
+
+
+def dielectric_layer_fresnel(f0t: np.ndarray, eta: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """(K,3) reflectance of the dielectric layer at cos ``mu`` between the view and the microfacet normal."""
+    s = _interpolation(eta, f0_from_ior(eta), dielectric_fresnel(mu, eta))
+    return f0t + (1.0 - f0t) * s[:, None]
 
 
 def _lambda(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
@@ -104,29 +152,84 @@ def sample(n, v, a, u1, u2):
     return l, weight, h
 
 
-@lru_cache(maxsize=64)
-def albedo_table(roughness: float) -> tuple[np.ndarray, np.ndarray, float]:
-    """(E (TABLE_MU,), s (TABLE_MU,), E_avg) of the lobe with F = 1 at view cosines ``mu_grid()``: E the
-    single-scattering albedo, s the lobe average of (1 - v.h)^5, E_avg = 2 int E mu dmu. Deterministic
-    (stratified visible-normal samples), so every render and test sees the same numbers."""
-    mu = mu_grid()
-    count = TABLE_SAMPLES * TABLE_SAMPLES
-    u, w = stratified_2d(1, count, np.random.default_rng(0))
-    u1, u2 = np.tile(u.ravel(), len(mu)), np.tile(w.ravel(), len(mu))
-    m = np.repeat(mu, count)
-    v = np.stack([np.sqrt(1.0 - m * m), np.zeros_like(m), m], axis=1)
-    n = np.tile([0.0, 0.0, 1.0], (len(m), 1))
-    a = np.full(len(m), float(alpha(roughness)))
-    _, weight, h = sample(n, v, a, u1, u2)
-    e = weight.reshape(len(mu), count).mean(axis=1)
-    schlick_part = (weight * (1.0 - np.clip(dot(v, h), 0.0, 1.0)) ** 5).reshape(len(mu), count).mean(axis=1)
-    s = schlick_part / np.maximum(e, 1e-300)
-    e_avg = float(np.sum(2.0 * e * mu) / TABLE_MU)  # midpoint rule on the grid's cell centres
-    return e, s, e_avg
+def roughness_grid() -> np.ndarray:
+    return np.linspace(0.0, 1.0, TABLE_ROUGHNESS)
 
 
 def mu_grid() -> np.ndarray:
     return (np.arange(TABLE_MU) + 0.5) / TABLE_MU
+
+
+@lru_cache(maxsize=1)
+def _lobe_samples() -> tuple[np.ndarray, np.ndarray]:
+    """(g, v.h), each (roughness, mu, samples) float32: the weights G2/G1 and view-half cosines of stratified
+    visible-normal samples of the F = 1 lobe at every table entry. Deterministic, so every render sees the same
+    tables; any Fresnel's lobe average is a reduction over them."""
+    rough, mu = roughness_grid(), mu_grid()
+    count = TABLE_SAMPLES * TABLE_SAMPLES
+    u, w = stratified_2d(1, count, np.random.default_rng(0))
+    cells = len(rough) * len(mu)
+    u1, u2 = np.tile(u.ravel(), cells), np.tile(w.ravel(), cells)
+    m = np.tile(np.repeat(mu, count), len(rough))
+    v = np.stack([np.sqrt(1.0 - m * m), np.zeros_like(m), m], axis=1)
+    n = np.tile([0.0, 0.0, 1.0], (len(m), 1))
+    a = np.repeat(alpha(rough), len(mu) * count)
+    _, weight, h = sample(n, v, a, u1, u2)
+    shape = (len(rough), len(mu), count)
+    return weight.reshape(shape).astype(np.float32), np.clip(dot(v, h), 0.0, 1.0).reshape(shape).astype(np.float32)
+
+
+@lru_cache(maxsize=1)
+def _metal_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(E, s, E_avg) on the grid: single-scattering albedo (roughness, mu), the lobe average of (1 - v.h)^5 and
+    E_avg = 2 int E mu dmu (roughness,)."""
+    g, vh = _lobe_samples()
+    e = g.mean(axis=2, dtype=np.float64)
+    s = (g * (1.0 - vh) ** 5).mean(axis=2, dtype=np.float64) / np.maximum(e, 1e-300)
+    e_avg = np.sum(2.0 * e * mu_grid(), axis=1) / TABLE_MU  # midpoint rule on the cells' centres
+    return e, s, e_avg
+
+
+@lru_cache(maxsize=32)
+def _dielectric_tables(eta: float) -> tuple[np.ndarray, float]:
+    """(s_bar (roughness, mu), s of F_ss_real) of the dielectric layer of relative IOR ``eta``."""
+    g, vh = _lobe_samples()
+    e = _metal_tables()[0]
+    f0 = float(f0_from_ior(eta))
+    s = _interpolation(eta, f0, dielectric_fresnel(vh.astype(np.float64), eta))
+    s_bar = (g * s).mean(axis=2) / np.maximum(e, 1e-300)
+    mu = (np.arange(256) + 0.5) / 256
+    f_ss_real = float(np.sum(2.0 * dielectric_fresnel(mu, eta) * mu) / 256)
+    return s_bar, float(_interpolation(eta, f0, f_ss_real))
+
+
+def _on_grid(table: np.ndarray, roughness: np.ndarray, mu: np.ndarray | None = None) -> np.ndarray:
+    """Bilinear lookup of a (roughness, mu) table, or linear of a (roughness,) one."""
+    x = np.clip(np.asarray(roughness, np.float64), 0.0, 1.0) * (TABLE_ROUGHNESS - 1)
+    i = np.minimum(np.floor(x).astype(np.int64), TABLE_ROUGHNESS - 2)
+    fx = x - i
+    if mu is None:
+        return table[i] * (1.0 - fx) + table[i + 1] * fx
+    y = np.clip(np.clip(mu, 0.0, 1.0) * TABLE_MU - 0.5, 0.0, TABLE_MU - 1)
+    j = np.minimum(np.floor(y).astype(np.int64), TABLE_MU - 2)
+    fy = y - j
+    return (table[i, j] * (1 - fx) + table[i + 1, j] * fx) * (1 - fy) + \
+        (table[i, j + 1] * (1 - fx) + table[i + 1, j + 1] * fx) * fy
+
+
+def albedo_table(roughness: float) -> tuple[np.ndarray, np.ndarray, float]:
+    """(E (TABLE_MU,), s (TABLE_MU,), E_avg) of the lobe with F = 1 at view cosines ``mu_grid()``, interpolated in
+    roughness from the grid."""
+    e, s, e_avg = _metal_tables()
+    r = np.full(1, float(roughness))
+    return _on_grid(e, r)[0], _on_grid(s, r)[0], float(_on_grid(e_avg, r)[0])
+
+
+def _scale(f_ss: np.ndarray, e: np.ndarray, e_avg: np.ndarray) -> np.ndarray:
+    """Kulla and Conty's energy compensation 1 + F_ms (1 - E) / E, and E (1 + ...): (scale, albedo factor)."""
+    f_ms = f_ss * e_avg / np.maximum(1.0 - f_ss * (1.0 - e_avg), 1e-6)
+    e = np.maximum(e, 1e-6)
+    return 1.0 + f_ms * (1.0 - e) / e, e + f_ms * (1.0 - e)
 
 
 @dataclass
@@ -138,46 +241,75 @@ class Compensation:
 
 
 def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> Compensation:
-    scale = np.ones_like(f0)
-    color = np.zeros_like(f0)
-    mu = np.clip(mu, 0.0, 1.0)
+    """The metallic lobe's compensation and Glossy Color at view cosines ``mu`` (per point, vectorised)."""
+    e_tab, s_tab, e_avg_tab = _metal_tables()
+    e = _on_grid(e_tab, roughness, mu)[:, None]
+    s = _on_grid(s_tab, roughness, mu)[:, None]
+    e_avg = _on_grid(e_avg_tab, roughness)[:, None]
     f_avg = np.clip(f0 + (1.0 - f0) / 21.0 - b / 126.0, 0.0, 1.0)  # hemispherical mean of the F82-tint curve
-    for r in np.unique(roughness):
-        rows = roughness == r
-        e_tab, s_tab, e_avg = albedo_table(float(r))
-        e = np.interp(mu[rows], mu_grid(), e_tab)[:, None]
-        s = np.interp(mu[rows], mu_grid(), s_tab)[:, None]
-        f_ms = f_avg[rows] * e_avg / np.maximum(1.0 - f_avg[rows] * (1.0 - e_avg), 1e-6)
-        e = np.maximum(e, 1e-6)
-        scale[rows] = 1.0 + f_ms * (1.0 - e) / e
-        color[rows] = (e + f_ms * (1.0 - e)) * (f0[rows] + (1.0 - f0[rows]) * s)
+    scale, albedo = _scale(f_avg, e, e_avg)
+    return Compensation(scale, albedo * (f0 + (1.0 - f0) * s))
+
+
+def _dielectric_compensation(roughness, f0t, eta, mu) -> Compensation:
+    """The dielectric layer's compensation and albedo A (its Glossy Color per unit weight); zero colour and unit
+    scale where eta is 1 (no layer)."""
+    scale, color = np.ones_like(f0t), np.zeros_like(f0t)
+    e_tab, _, e_avg_tab = _metal_tables()
+    for value in np.unique(eta[eta != 1.0]):
+        rows = np.nonzero(eta == value)[0]
+        s_bar_tab, s_ss = _dielectric_tables(round(float(value), 4))
+        r, m, f = roughness[rows], mu[rows], f0t[rows]
+        e = _on_grid(e_tab, r, m)[:, None]
+        sc, albedo = _scale(f + (1.0 - f) * s_ss, e, _on_grid(e_avg_tab, r)[:, None])
+        scale[rows] = sc
+        color[rows] = albedo * (f + (1.0 - f) * _on_grid(s_bar_tab, r, m)[:, None])
     return Compensation(scale, color)
+
+
+def layer_albedo(roughness: np.ndarray, f0t: np.ndarray, eta: np.ndarray, mu: np.ndarray) -> np.ndarray:
+    """(K,3) albedo A of the dielectric layer seen at view cosines ``mu``: the diffuse lobe below keeps
+    1 - max(A) of its weight (Cycles' ``closure_layering_weight``)."""
+    return _dielectric_compensation(roughness, f0t, eta, mu).color
 
 
 @dataclass
 class GlossyLobe:
-    """The metallic lobe at a set of points, seen from their viewers: f cos with the material's weight (metallic x
-    the energy compensation) folded in, and Cycles' ``Glossy Color`` of each point."""
+    """The glossy lobes at a set of points, seen from their viewers: the metallic lobe (weight Metallic x its
+    compensation) plus the dielectric layer (weight 1 - Metallic x its compensation), f cos with the weights folded
+    in, and Cycles' ``Glossy Color`` of each point (the sum of both lobes' albedos)."""
 
     normal: np.ndarray  # (K,3) shading normals
     view: np.ndarray  # (K,3) toward the viewer
     alpha: np.ndarray  # (K,)
-    f0: np.ndarray  # (K,3)
-    edge: np.ndarray  # (K,3)
+    f0: np.ndarray  # (K,3) metal
+    edge: np.ndarray  # (K,3) metal
     weight: np.ndarray  # (K,3) metallic x compensation scale
-    color: np.ndarray  # (K,3) metallic x the compensated albedo estimate: Cycles' Glossy Color
+    f0t: np.ndarray  # (K,3) dielectric layer: F0 x Specular Tint
+    eta: np.ndarray  # (K,) dielectric layer (1: none)
+    layer: np.ndarray  # (K,3) (1 - metallic) x the layer's compensation scale
+    color: np.ndarray  # (K,3) Cycles' Glossy Color
 
     @staticmethod
     def of(surface) -> "GlossyLobe":
         view = -surface.incident
-        shiny = np.nonzero(surface.metallic > 0.0)[0]  # the rest has no lobe: weight and colour stay 0
-        comp = compensation(surface.roughness[shiny], surface.specular[shiny], surface.edge[shiny],
-                            dot(surface.shading_normal[shiny], view[shiny]))
-        m = surface.metallic[shiny, None]
-        weight, color = np.zeros_like(surface.specular), np.zeros_like(surface.specular)
-        weight[shiny], color[shiny] = m * comp.scale, m * comp.color
+        k = len(surface.metallic)
+        weight, color, layer = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3))
+        mu = dot(surface.shading_normal, view)
+        shiny = np.nonzero(surface.metallic > 0.0)[0]
+        if len(shiny):
+            comp = compensation(surface.roughness[shiny], surface.specular[shiny], surface.edge[shiny], mu[shiny])
+            m = surface.metallic[shiny, None]
+            weight[shiny], color[shiny] = m * comp.scale, m * comp.color
+        coated = np.nonzero((surface.eta != 1.0) & (surface.metallic < 1.0))[0]
+        if len(coated):
+            comp = _dielectric_compensation(surface.roughness[coated], surface.dielectric[coated],
+                                            surface.eta[coated], mu[coated])
+            below = 1.0 - surface.metallic[coated, None]
+            layer[coated] = below * comp.scale
+            color[coated] += below * comp.color
         return GlossyLobe(surface.shading_normal, view, alpha(surface.roughness), surface.specular, surface.edge,
-                          weight, color)
+                          weight, surface.dielectric, surface.eta, layer, color)
 
     def take(self, rows) -> "GlossyLobe":
         return GlossyLobe(*(getattr(self, f.name)[rows] for f in fields(GlossyLobe)))
@@ -186,16 +318,31 @@ class GlossyLobe:
     def concat(parts: list["GlossyLobe"]) -> "GlossyLobe":
         return GlossyLobe(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(GlossyLobe)))
 
+    def fresnel(self, vh: np.ndarray, rows: np.ndarray) -> np.ndarray:
+        """(R,3) both lobes' Fresnel at view-half cosines ``vh``, with their weights."""
+        rows = np.arange(len(self.eta))[rows]
+        out = fresnel(self.f0[rows], self.edge[rows], vh) * self.weight[rows]
+        coated = np.nonzero(self.eta[rows] != 1.0)[0]
+        if len(coated):
+            r = rows[coated]
+            out[coated] += dielectric_layer_fresnel(self.f0t[r], self.eta[r], vh[coated]) * self.layer[r]
+        return out
+
     def evaluate(self, l: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f cos (R,3) with the weight, pdf (R,) of ``sample``) toward directions ``l`` (R,3) at points ``rows``."""
-        value, pdf = evaluate(self.normal[rows], self.view[rows], l, self.alpha[rows], self.f0[rows],
-                              self.edge[rows])
-        return value * self.weight[rows], pdf
+        """(f cos (R,3) with the weights, pdf (R,) of ``sample``) toward directions ``l`` (R,3) at points ``rows``."""
+        rows = np.asarray(rows)
+        n, v = self.normal[rows], self.view[rows]
+        ones = np.ones((len(l), 3))
+        value, pdf = evaluate(n, v, l, self.alpha[rows], ones, np.zeros_like(ones))  # F = 1: D G2 / (4 cos_v)
+        h = v + l
+        h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+        return value[:, :1] * self.fresnel(dot(v, h), rows), pdf
 
     def sample(self, u1: np.ndarray, u2: np.ndarray, rows: np.ndarray):
-        """(l (R,3), f cos / pdf (R,3) with the weight, pdf (R,)) at points ``rows``."""
+        """(l (R,3), f cos / pdf (R,3) with the weights, pdf (R,)) at points ``rows``."""
+        rows = np.asarray(rows)
         n, v, a = self.normal[rows], self.view[rows], self.alpha[rows]
         l, g, h = sample(n, v, a, u1, u2)
-        _, pdf = evaluate(n, v, l, a, self.f0[rows], self.edge[rows])
-        f = fresnel(self.f0[rows], self.edge[rows], dot(v, h))
-        return l, f * (g[:, None] * self.weight[rows]), np.where(g > 0.0, pdf, 0.0)
+        ones = np.ones((len(l), 3))
+        _, pdf = evaluate(n, v, l, a, ones, np.zeros_like(ones))
+        return l, self.fresnel(dot(v, h), rows) * g[:, None], np.where(g > 0.0, pdf, 0.0)

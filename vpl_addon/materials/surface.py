@@ -1,7 +1,14 @@
 """What a ray finds where it hits: position, normals turned toward the ray's origin side, material terms.
 
 The one place that turns embree hits into shading data; the G-buffer, light paths and camera paths all use it.
-Surfaces are two-sided (as in Cycles): both normals are flipped to face the incoming ray.
+Surfaces are two-sided (as in Cycles): both normals are flipped to face the incoming ray. Material inputs driven by
+image textures (``textures``) are looked up here, the Normal input through a tangent-space normal map as Cycles'
+Normal Map node applies it: N' = normalize(x T + y B + z N) with (x, y, z) = 2 colour - 1 and B = sign N x T, then
+N + (N' - N) strength, normalised.
+
+The Principled BSDF's layers as Cycles stacks them (``svm/closure.h``): the metallic lobe weighs ``metallic``,
+everything below it 1 - metallic; the dielectric specular layer (``microfacet``) sits on the diffuse lobe, which
+keeps 1 - max(A) of its weight, A the layer's albedo toward the viewer (``microfacet.layer_albedo``).
 """
 from __future__ import annotations
 
@@ -10,8 +17,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, normalize
-from .microfacet import f82_b
-from .textures import sample_bilinear
+from .microfacet import f82_b, layer_albedo, specular_layer
+from .textures import lookup
 
 
 @dataclass
@@ -21,13 +28,20 @@ class Surface:
     shading_normal: np.ndarray  # (K,3) facing the incoming ray's side
     prim: np.ndarray  # (K,) triangle index
     material: np.ndarray  # (K,)
-    albedo: np.ndarray  # (K,3) diffuse albedo (base colour or texture x (1 - metallic))
+    albedo: np.ndarray  # (K,3) diffuse albedo: base colour x (1 - metallic) x what the specular layer leaves
     roughness: np.ndarray  # (K,)
     metallic: np.ndarray  # (K,) weight of the metallic GGX lobe (``microfacet``)
     emission: np.ndarray  # (K,3)
     specular: np.ndarray  # (K,3) F0 of the metallic lobe: the base colour (or texture)
     edge: np.ndarray  # (K,3) b of the F82-tint Fresnel (``microfacet.f82_b``)
+    dielectric: np.ndarray  # (K,3) F0 x Specular Tint of the dielectric specular layer (0: none)
+    eta: np.ndarray  # (K,) relative IOR of that layer (1: none)
     incident: np.ndarray  # (K,3) unit direction of the ray that found the point (the viewer is at -incident)
+
+    @property
+    def glossy(self) -> np.ndarray:
+        """(K,) bool: whether the point has a glossy lobe, metallic or the dielectric layer."""
+        return (self.metallic > 0.0) | (self.eta != 1.0)
 
     def __len__(self):
         return len(self.prim)
@@ -48,29 +62,72 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     tri = scene.triangles[prim].astype(np.float64)
     position = b0 * tri[:, 0] + b1 * tri[:, 1] + b2 * tri[:, 2]
     ng = normalize(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))  # of these triangles only: O(hits)
-    flip = dot(ng, dirs[rows]) > 0.0
-    ng = np.where(flip[:, None], -ng, ng)
     cn = scene.normals[prim].astype(np.float64)
     ns = normalize(b0 * cn[:, 0] + b1 * cn[:, 1] + b2 * cn[:, 2])
-    ns = np.where(flip[:, None], -ns, ns)
     ns = np.where((dot(ns, ns) > 0.5)[:, None], ns, ng)
     mat = scene.material[prim]
     m = scene.materials
-    base = m.base_color[mat].astype(np.float64)
-    tex_ids = m.texture[mat]
-    if (tex_ids >= 0).any():
-        uv_c = scene.uvs[prim].astype(np.float64)
-        uv = b0 * uv_c[:, 0] + b1 * uv_c[:, 1] + b2 * uv_c[:, 2]
-        for t in np.unique(tex_ids[tex_ids >= 0]):
-            sel = tex_ids == t
-            base[sel] = sample_bilinear(scene.textures[t], uv[sel])[:, :3]
-    metallic = m.metallic[mat].astype(np.float64)
-    base = np.clip(base, 0.0, 1.0)
+    inputs = _inputs(scene, mat, prim, np.concatenate([b0, b1, b2], axis=1), ns)
+    flip = (dot(ng, dirs[rows]) > 0.0)[:, None]  # turned toward the ray after the normal map, as Cycles does
+    ng = np.where(flip, -ng, ng)
+    ns = np.where(flip, -inputs["normal"], inputs["normal"])
+    base, metallic, roughness = np.clip(inputs["base_color"], 0.0, 1.0), inputs["metallic"], inputs["roughness"]
+    tint = m.specular_tint[mat].astype(np.float64)
+    f0, eta = specular_layer(m.ior[mat].astype(np.float64), m.specular[mat].astype(np.float64))
+    dielectric = f0[:, None] * tint
+    below = (1.0 - metallic)[:, None] * base
+    layered = np.nonzero(eta != 1.0)[0]
+    if len(layered):
+        mu = np.clip(-dot(ns[layered], dirs[rows][layered]), 0.0, 1.0)
+        a = layer_albedo(roughness[layered], dielectric[layered], eta[layered], mu)
+        below[layered] *= np.clip(1.0 - a.max(axis=1), 0.0, 1.0)[:, None]
     return Surface(position=position, geometric_normal=ng, shading_normal=ns, prim=prim, material=mat,
-                   albedo=base * (1.0 - metallic)[:, None],
-                   roughness=m.roughness[mat].astype(np.float64), metallic=metallic,
-                   emission=m.emission[mat].astype(np.float64), specular=base,
-                   edge=f82_b(base, m.specular_tint[mat].astype(np.float64)), incident=dirs[rows])
+                   albedo=below, roughness=roughness, metallic=metallic, emission=inputs["emission"],
+                   specular=base, edge=f82_b(base, tint), dielectric=dielectric, eta=eta, incident=dirs[rows])
+
+
+def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:
+    """Per point, the material inputs an image can drive: their values, or the textures' where linked; ``normal``
+    the shading normal after any normal map (not yet turned toward the ray)."""
+    m = scene.materials
+    out = {"base_color": m.base_color[mat].astype(np.float64), "roughness": m.roughness[mat].astype(np.float64),
+           "metallic": m.metallic[mat].astype(np.float64), "emission": m.emission[mat].astype(np.float64),
+           "normal": ns}
+    linked = {name: m.mapped(name)[mat] for name in out}
+    if not any((ids >= 0).any() for ids in linked.values()):
+        return out
+    uv_c = scene.uvs[prim].astype(np.float64)
+    uv = bary[:, :1] * uv_c[:, 0] + bary[:, 1:2] * uv_c[:, 1] + bary[:, 2:] * uv_c[:, 2]
+    for name, ids in linked.items():
+        for t in np.unique(ids[ids >= 0]):
+            sel = np.nonzero(ids == t)[0]
+            tmap = m.maps[t]
+            if name == "normal":
+                out[name] = out[name].copy()
+                out[name][sel] = _normal_mapped(scene, tmap, prim[sel], bary[sel], ns[sel], uv[sel])
+            else:
+                out[name] = out[name].copy()
+                out[name][sel] = lookup(tmap, scene.textures, uv[sel], scalar=name in ("roughness", "metallic"))
+    out["roughness"] = np.clip(out["roughness"], 0.0, 1.0)
+    out["metallic"] = np.clip(out["metallic"], 0.0, 1.0)
+    out["emission"] = np.maximum(out["emission"], 0.0)
+    return out
+
+
+def _normal_mapped(scene, tmap, prim, bary, ns, uv) -> np.ndarray:
+    """Cycles' Normal Map node in tangent space (``svm_node_normal_map``) at points with unflipped normals ``ns``."""
+    tc = scene.tangents[prim].astype(np.float64)
+    t4 = bary[:, :1] * tc[:, 0] + bary[:, 1:2] * tc[:, 1] + bary[:, 2:] * tc[:, 2]
+    t = t4[:, :3] - dot(t4[:, :3], ns)[:, None] * ns
+    length = np.linalg.norm(t, axis=1, keepdims=True)
+    t = np.where(length > 1e-12, t / np.maximum(length, 1e-300), 0.0)
+    b = np.where(t4[:, 3:] < 0.0, -1.0, 1.0) * np.cross(ns, t)
+    c = 2.0 * lookup(tmap, scene.textures, uv, scalar=False) - 1.0
+    mapped = c[:, :1] * t + c[:, 1:2] * b + c[:, 2:] * ns
+    if tmap.strength != 1.0:
+        mapped = ns + (mapped - ns) * max(tmap.strength, 0.0)
+    length = np.linalg.norm(mapped, axis=1, keepdims=True)
+    return np.where(length > 1e-12, mapped / np.maximum(length, 1e-300), ns)
 
 
 def bounce(scene, tracer, surface: Surface, dirs: np.ndarray):

@@ -1,23 +1,65 @@
-"""Image textures: bilinear lookup with repeat wrapping, as Cycles' Image Texture node does by default
-(interpolation Linear, extension Repeat). Texel rows run from the bottom (v = 0) as in Blender images."""
+"""Image textures as Cycles' Image Texture node reads them: bilinear (Linear) or nearest (Closest) lookups with the
+node's extension (Repeat, Extend, Clip), through the UV transform of a Mapping node, and the value a material input
+takes from them (``TextureMap``: colour, one channel or the alpha, times a factor). Texel rows run from the bottom
+(v = 0) as in Blender images. Every lookup is vectorised over all the points that use one map."""
 from __future__ import annotations
 
 import numpy as np
 
+from ..core.color import luminance
+from ..core.scene import TextureMap
 
-def sample_bilinear(texture: np.ndarray, uv: np.ndarray) -> np.ndarray:
-    """Colours (K,C) of an (h,w,C) texture at UVs (K,2); texel centres sit at (i + 0.5) / w."""
+
+def _texels(i: np.ndarray, size: int, extension: str) -> tuple[np.ndarray, np.ndarray]:
+    """(index into the image, whether the texel exists) for texel coordinates ``i`` under ``extension``."""
+    if extension == "EXTEND":
+        return np.clip(i, 0, size - 1), np.ones(i.shape, bool)
+    if extension == "CLIP":
+        inside = (i >= 0) & (i < size)
+        return np.clip(i, 0, size - 1), inside
+    return i % size, np.ones(i.shape, bool)
+
+
+def sample_bilinear(texture: np.ndarray, uv: np.ndarray, extension: str = "REPEAT",
+                    closest: bool = False) -> np.ndarray:
+    """Values (K,C) of an (h,w,C) texture at UVs (K,2); texel centres sit at (i + 0.5) / w. Clip makes texels
+    outside the image 0 (Cycles' transparent black)."""
     h, w = texture.shape[:2]
-    x = uv[:, 0] * w - 0.5
-    y = uv[:, 1] * h - 0.5
-    x0 = np.floor(x)
-    y0 = np.floor(y)
-    fx = (x - x0)[:, None]
-    fy = (y - y0)[:, None]
-    x0 = x0.astype(np.int64) % w
-    y0 = y0.astype(np.int64) % h
-    x1 = (x0 + 1) % w
-    y1 = (y0 + 1) % h
-    top = texture[y0, x0] * (1 - fx) + texture[y0, x1] * fx
-    bottom = texture[y1, x0] * (1 - fx) + texture[y1, x1] * fx
+    x = uv[:, 0] * w
+    y = uv[:, 1] * h
+    if closest:
+        (xi, xin), (yi, yin) = _texels(np.floor(x).astype(np.int64), w, extension), \
+            _texels(np.floor(y).astype(np.int64), h, extension)
+        return texture[yi, xi] * (xin & yin)[:, None]
+    x, y = x - 0.5, y - 0.5
+    x0, y0 = np.floor(x), np.floor(y)
+    fx, fy = (x - x0)[:, None], (y - y0)[:, None]
+    x0, y0 = x0.astype(np.int64), y0.astype(np.int64)
+    (xa, ina), (xb, inb) = _texels(x0, w, extension), _texels(x0 + 1, w, extension)
+    (ya, jna), (yb, jnb) = _texels(y0, h, extension), _texels(y0 + 1, h, extension)
+
+    def texel(yi, xi, present):
+        return texture[yi, xi] * present[:, None]
+
+    top = texel(ya, xa, ina & jna) * (1 - fx) + texel(ya, xb, inb & jna) * fx
+    bottom = texel(yb, xa, ina & jnb) * (1 - fx) + texel(yb, xb, inb & jnb) * fx
     return top * (1 - fy) + bottom * fy
+
+
+def transformed_uv(tmap: TextureMap, uv: np.ndarray) -> np.ndarray:
+    a, b, c, d, e, f = tmap.uv
+    return np.stack([a * uv[:, 0] + b * uv[:, 1] + c, d * uv[:, 0] + e * uv[:, 1] + f], axis=1)
+
+
+def lookup(tmap: TextureMap, textures: list[np.ndarray], uv: np.ndarray, scalar: bool) -> np.ndarray:
+    """What the input fed by ``tmap`` receives at UVs (K,2): (K,) for a ``scalar`` input (a channel, or the
+    colour's luminance as Blender converts a colour to a float), else (K,3) (a channel repeated: a float into a
+    colour input is grey)."""
+    image = textures[tmap.image]
+    texel = sample_bilinear(image, transformed_uv(tmap, uv), tmap.extension, tmap.closest)
+    factor = np.asarray(tmap.factor, np.float64)
+    if tmap.channel >= 0:
+        value = texel[:, tmap.channel].astype(np.float64)
+        return value * factor[0] if scalar else value[:, None] * factor
+    rgb = texel[:, :3].astype(np.float64) * factor
+    return luminance(rgb) if scalar else rgb

@@ -65,7 +65,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
         weight = surf.albedo[keep] / choose_diffuse[keep, None]
         if glossy:
-            shiny = np.nonzero(~keep & (surf.metallic > 0.0))[0]
+            shiny = np.nonzero(~keep & surf.glossy)[0]
             lobe = GlossyLobe.of(surf.take(shiny))
             choose_glossy = np.minimum(lobe.color.max(axis=1), 1.0 - choose_diffuse[shiny])
             shiny_keep = u[shiny] < choose_diffuse[shiny] + choose_glossy

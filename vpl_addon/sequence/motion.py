@@ -63,8 +63,11 @@ class Snapshot:
             pts = tri.reshape(-1, 3).astype(np.float64)
             bounds[name] = (pts.min(axis=0), pts.max(axis=0))
         m = scene.materials
-        shading = _digest(m.base_color, m.roughness, m.metallic, m.emission, m.texture, np.asarray(scene.world),
+        maps = np.frombuffer(repr(m.maps).encode(), np.uint8)  # the same text in every process (not hash())
+        shading = _digest(m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.ior, m.specular,
+                          m.alpha, maps, *m.map_of.values(), np.asarray(scene.world),
                           np.array([scene.max_bounces]), *scene.textures, scene.uvs,
+                          *(() if scene.tangents is None else (scene.tangents,)),
                           *(() if scene.environment is None else (scene.environment.image, scene.environment.rotation)))
         cam = scene.camera
         camera = _digest(np.asarray(cam.to_world, np.float64), np.asarray(cam.window, np.float64),

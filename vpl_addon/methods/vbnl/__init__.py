@@ -3,7 +3,7 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
 
 ``place`` follows sec. 3:
 1. candidates (sec. 3.1): M = ``candidates`` x N camera samples, the same number in every pixel; at each primary
-   hit x a BSDF-sampled ray (the metallic lobe with probability Metallic, else cosine) finds y, a point the
+   hit x a BSDF-sampled ray (the glossy lobe with its share of the albedo, else cosine) finds y, a point the
    gather can see: the candidate if y has a diffuse colour; on pure metal the camera path goes on (Fig. 6b), up to
    ``SPECULAR_EXTENSION`` times. Lights hold diffusely reflected light only: a metallic lobe's light is found by
    extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
@@ -27,6 +27,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...core.color import luminance
 from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import Surface, bounce, diffuse_bounce, shade
@@ -63,14 +64,16 @@ class VBNLSettings:
 
 
 def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
-    """What one BSDF-sampled ray from each point of ``x`` hits: the metallic lobe with probability Metallic,
-    the cosine-weighted diffuse lobe otherwise."""
+    """What one BSDF-sampled ray from each point of ``x`` hits: the glossy lobe with its share of the point's
+    albedo (luminance of Glossy Color over it plus the diffuse albedo), the cosine-weighted diffuse lobe otherwise."""
     if not scene.materials.glossy:
         return diffuse_bounce(scene, tracer, x, rng)[0]
     dirs, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
-    shiny = np.nonzero(rng.random(len(x)) < x.metallic)[0]
-    dirs[shiny] = GlossyLobe.of(x.take(shiny)).sample(rng.random(len(shiny)), rng.random(len(shiny)),
-                                                      np.arange(len(shiny)))[0]
+    lobe = GlossyLobe.of(x)
+    gloss = luminance(lobe.color)
+    share = gloss / np.maximum(gloss + luminance(x.albedo), 1e-300)
+    shiny = np.nonzero(rng.random(len(x)) < share)[0]
+    dirs[shiny] = lobe.sample(rng.random(len(shiny)), rng.random(len(shiny)), shiny)[0]
     return bounce(scene, tracer, x, dirs)[0]
 
 
@@ -88,7 +91,7 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
             x = GBuffer.build(scene, tracer, np.arange(lo, min(pixels, lo + step)), spp, rng).surface
             y = _bsdf_bounce(scene, tracer, x, rng)
             for _ in range(SPECULAR_EXTENSION):  # Fig. 6b: on metal, the camera path goes on
-                metal = (y.albedo.max(axis=1) == 0.0) & (y.metallic > 0.0)
+                metal = (y.albedo.max(axis=1) == 0.0) & y.glossy
                 if not metal.any():
                     break
                 y = Surface.concat([y.take(np.nonzero(~metal)[0]),

@@ -155,7 +155,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
     following = [PathVertices(y.take(go), owner[at][go], carry[go])]
     out += group_sum(following[0].owner, following[0].throughput *
                      direct_light(following[0].point, light_set, tracer, 1, rng)[0], len(out))
-    shiny = np.nonzero(y.metallic > 0.0)[0]
+    shiny = np.nonzero(y.glossy)[0]
     if len(shiny):
         following.append(at_metal(y, shiny, owner[at], carried, light_set, tracer, rng, out))
     return following

@@ -1,0 +1,298 @@
+"""Blender materials -> engine material rows: the Principled BSDF's inputs, and the image textures that drive them
+read through the node patterns Blender users and its glTF importer build.
+
+An input's link is followed back through reroutes to an Image Texture, across what the engine can carry along:
+- Separate Color (RGB) / Separate RGB: one channel of the image (glTF's metallic-roughness texture: G roughness,
+  B metallic);
+- Mix Color (Multiply) or Math (Multiply) with a constant: a factor (glTF's base colour, roughness, metallic
+  factors);
+- Normal Map (tangent space) into Normal: the image is a tangent-space normal map of that strength and UV map.
+The image's Vector comes from the default UV map, a UV Map node or Texture Coordinate's UV, through a Mapping node
+(its location, rotation and scale as an affine UV transform). Anything else keeps the input's value, with one warning
+naming the material, the input and the node.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..vpl_addon.core.scene import Materials, TextureMap
+
+CHANNELS = {"Red": 0, "R": 0, "Green": 1, "G": 1, "Blue": 2, "B": 2}
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+def image_pixels(image, alpha: bool = False) -> np.ndarray | None:
+    """(h,w,3) float32 linear RGB (RGBA with ``alpha``) of a Blender image, row 0 at the bottom, NaN and infinities
+    0; None when it has no pixels (a missing file, a zero-size image)."""
+    w, h = image.size
+    if not image.has_data and w * h == 0:
+        try:
+            image.pixels[0]  # loads the file if it exists
+        except (IndexError, RuntimeError):
+            pass
+        w, h = image.size
+    if w * h == 0 or image.channels == 0:
+        return None
+    px = np.empty(w * h * image.channels, np.float32)
+    image.pixels.foreach_get(px)
+    px = px.reshape(h, w, image.channels)
+    rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
+    if not image.is_float and image.colorspace_settings.name == "sRGB":
+        rgb = srgb_to_linear(rgb)
+    if alpha:
+        a = px[..., 3:4] if image.channels in (2, 4) else np.ones((h, w, 1), np.float32)
+        if image.channels == 2:
+            a = px[..., 1:2]
+        rgb = np.concatenate([rgb, a], axis=2)
+    return np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+
+
+def surface_node(material):
+    """The shader node feeding the active material output's Surface, or None without nodes."""
+    tree = material.node_tree
+    if tree is None:
+        return None
+    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
+    active = [n for n in outputs if n.is_active_output] or outputs
+    if not active:
+        return None
+    source = _source(active[0].inputs["Surface"])
+    return None if source is None else source.node
+
+
+def _source(socket):
+    """The output socket feeding ``socket``, through reroutes; None when unlinked (or muted)."""
+    while socket.is_linked:
+        link = socket.links[0]
+        if getattr(link, "is_muted", False) or not link.is_valid:
+            return None
+        if link.from_node.type == "REROUTE":
+            socket = link.from_node.inputs[0]
+            continue
+        return link.from_socket
+    return None
+
+
+def _constant(socket):
+    """The value of an unlinked socket (a tuple for colours and vectors), None when it is linked."""
+    if _source(socket) is not None:
+        return None
+    value = socket.default_value
+    return tuple(value) if hasattr(value, "__len__") else float(value)
+
+
+def _mapping_uv(node) -> tuple | None:
+    """The UV affine transform (a, b, c, d, e, f) of a Mapping node with constant inputs, None if unsupported."""
+    kind = node.vector_type
+    loc, rot, scale = (_constant(node.inputs[k]) for k in ("Location", "Rotation", "Scale"))
+    if kind not in ("POINT", "TEXTURE") or None in (loc, rot, scale):
+        return None
+    rx, ry, rz = rot
+    cx, sx, cy, sy, cz, sz = math.cos(rx), math.sin(rx), math.cos(ry), math.sin(ry), math.cos(rz), math.sin(rz)
+    r = np.array([[cz, -sz, 0], [sz, cz, 0], [0, 0, 1]]) @ np.array([[cy, 0, sy], [0, 1, 0], [-sy, 0, cy]]) @ \
+        np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])  # Blender's XYZ Euler: X first
+    s = np.diag(scale)
+    if kind == "POINT":
+        m, t = r @ s, np.array(loc)
+    else:  # the inverse: the texture moves instead of the coordinates
+        if min(abs(v) for v in scale) < 1e-12:
+            return None
+        m = np.linalg.inv(s) @ r.T
+        t = -m @ np.array(loc)
+    return (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1])
+
+
+class MaterialTable:
+    """Rows of every material met (``Materials.make``), in first-seen order, the images they read and the UV map
+    each material's textures use (None: the render UV map)."""
+
+    def __init__(self, warnings: list[str]):
+        self.rows: list[dict] = []
+        self.index: dict[str, int] = {}
+        self.textures: list[np.ndarray] = []
+        self.texture_index: dict[tuple[str, bool], int] = {}
+        self.uv_map: dict[int, str | None] = {}
+        self.images: dict[int, list[str]] = {}  # material id -> names of the images it reads
+        self.warnings = warnings
+        self._uv_names: list[str | None] = []  # of the material being read
+        self._image_names: list[str] = []
+
+    def id_of(self, material) -> int:
+        if material is None:
+            return 0
+        key = material.name_full
+        if key not in self.index:
+            self._uv_names, self._image_names = [], []
+            self.rows.append(self._read(material))
+            self.index[key] = len(self.rows)
+            names = set(self._uv_names)
+            if len(names) > 1:
+                self.warnings.append(f"material {material.name!r}: its textures use several UV maps "
+                                     f"({', '.join(sorted(n or 'default' for n in names))}); all read "
+                                     f"{self._uv_names[0] or 'the default one'!r}")
+            self.uv_map[self.index[key]] = self._uv_names[0] if self._uv_names else None
+            self.images[self.index[key]] = self._image_names
+        return self.index[key]
+
+    def normal_mapped(self, material_id: int) -> bool:
+        return material_id > 0 and "normal" in self.rows[material_id - 1].get("maps", {})
+
+    def build(self) -> Materials:
+        return Materials.make(self.rows)
+
+    def _image(self, image, material, alpha: bool) -> int | None:
+        key = (image.name_full, alpha)
+        if key not in self.texture_index:
+            pixels = image_pixels(image, alpha)
+            if pixels is None:
+                self.warnings.append(f"material {material.name!r}: image {image.name!r} could not be loaded "
+                                     f"({image.filepath or 'no file'}); using the input's value instead")
+                self.texture_index[key] = -1
+            else:
+                self.textures.append(pixels)
+                self.texture_index[key] = len(self.textures) - 1
+        index = self.texture_index[key]
+        return None if index < 0 else index
+
+    def _map(self, material, label: str, socket, normal: bool = False) -> TextureMap | None:
+        """The TextureMap feeding ``socket`` (None with a warning when the chain is not one the engine reads)."""
+        out, channel, factor, strength = _source(socket), -1, np.ones(3), 1.0
+        uv_name = None
+
+        def unsupported(node, why=""):
+            self.warnings.append(f"material {material.name!r}: {label} from {node.bl_label!r} ({node.name}) is not "
+                                 f"supported{why}; using the input's value")
+            return None
+
+        while out is not None:
+            node = out.node
+            if node.type == "TEX_IMAGE":
+                break
+            if normal and node.type == "NORMAL_MAP":
+                s = _constant(node.inputs["Strength"])
+                if node.space != "TANGENT" or s is None:
+                    return unsupported(node, " (only tangent space with a constant Strength)")
+                strength, uv_name, normal = s, node.uv_map or None, False
+                out = _source(node.inputs["Color"])
+            elif node.type in ("SEPARATE_COLOR", "SEPRGB") and getattr(node, "mode", "RGB") == "RGB" \
+                    and out.name in CHANNELS and channel < 0:
+                channel = CHANNELS[out.name]
+                out = _source(node.inputs[0])
+            elif node.type == "MIX" and node.data_type == "RGBA" and node.blend_type == "MULTIPLY" \
+                    and not node.clamp_result:
+                f, a, b = _constant(node.inputs[0]), node.inputs[6], node.inputs[7]
+                linked = [s for s in (a, b) if _source(s) is not None]
+                if f is None or len(linked) != 1:
+                    return unsupported(node, " (only a Multiply of one image by a constant colour)")
+                other = np.array(_constant(b if linked[0] is a else a)[:3])
+                factor = factor * (1.0 - f + f * other)
+                out = _source(linked[0])
+            elif node.type == "MATH" and node.operation == "MULTIPLY" and not node.use_clamp:
+                linked = [s for s in node.inputs[:2] if _source(s) is not None]
+                if len(linked) != 1:
+                    return unsupported(node, " (only a Multiply of an image by a constant)")
+                factor = factor * _constant(node.inputs[1] if linked[0] is node.inputs[0] else node.inputs[0])
+                out = _source(linked[0])
+            else:
+                return unsupported(node)
+        if out is None:
+            return None  # a chain of constants: the input's value stands
+        node = out.node
+        if normal:
+            return unsupported(node, " without a Normal Map node")
+        if node.image is None:
+            return None
+        if node.projection != "FLAT":
+            return unsupported(node, f" with {node.projection.lower()} projection")
+        if out.name == "Alpha":
+            if channel >= 0:
+                return unsupported(node, " (a channel of its alpha)")
+            channel = 3
+        uv, via = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0), _source(node.inputs["Vector"])
+        if via is not None and via.node.type == "MAPPING":
+            uv = _mapping_uv(via.node)
+            if uv is None:
+                return unsupported(via.node, " (only Point or Texture type with constant inputs)")
+            via = _source(via.node.inputs["Vector"])
+        if via is not None:
+            if via.node.type == "UVMAP" and not via.node.from_instancer:
+                uv_name = uv_name or via.node.uv_map or None
+            elif not (via.node.type == "TEX_COORD" and via.name == "UV"):
+                return unsupported(via.node, " as the image's Vector (only UV coordinates)")
+        extension = node.extension if node.extension in ("REPEAT", "EXTEND", "CLIP") else "REPEAT"
+        if extension != node.extension:
+            self.warnings.append(f"material {material.name!r}: image {node.image.name!r} extension "
+                                 f"{node.extension.title()} is read as Repeat")
+        index = self._image(node.image, material, alpha=channel == 3)
+        if index is None:
+            return None
+        self._uv_names.append(uv_name)
+        self._image_names.append(node.image.name)
+        return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), tuple(uv),
+                          extension, node.interpolation == "Closest", float(strength))
+
+    def _read(self, material) -> dict:
+        row = {"name": material.name}
+        surface = surface_node(material)
+        if surface is None:
+            row["base_color"] = tuple(material.diffuse_color)[:3]
+            row["roughness"] = material.roughness
+            row["metallic"] = material.metallic
+            return row
+        if surface.type == "BSDF_PRINCIPLED":
+            return self._principled(material, surface, row)
+        if surface.type == "EMISSION":
+            strength = surface.inputs["Strength"].default_value
+            row["base_color"] = (0.0, 0.0, 0.0)
+            row["emission"] = tuple(c * strength for c in surface.inputs["Color"].default_value[:3])
+            self._linked(material, row, surface, {"Color": "emission"}, scale=strength)
+            return row
+        if surface.type == "BSDF_DIFFUSE":
+            row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
+            row["roughness"] = 1.0
+            self._linked(material, row, surface, {"Color": "base_color"})
+            return row
+        self.warnings.append(f"material {material.name!r}: surface shader {surface.bl_label!r} is not supported; "
+                             f"rendered as grey diffuse")
+        return {"name": material.name}
+
+    def _principled(self, material, node, row: dict) -> dict:
+        inputs = node.inputs
+        row["base_color"] = tuple(inputs["Base Color"].default_value)[:3]
+        row["roughness"] = inputs["Roughness"].default_value
+        row["metallic"] = inputs["Metallic"].default_value
+        row["specular_tint"] = tuple(inputs["Specular Tint"].default_value)[:3]
+        row["ior"] = inputs["IOR"].default_value
+        row["specular"] = inputs["Specular IOR Level"].default_value
+        row["alpha"] = inputs["Alpha"].default_value
+        strength = inputs["Emission Strength"].default_value
+        row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
+        self._linked(material, row, node, {"Base Color": "base_color", "Roughness": "roughness",
+                                           "Metallic": "metallic", "Emission Color": "emission"}, scale=strength)
+        if _source(inputs["Normal"]) is not None:
+            tmap = self._map(material, "Normal", inputs["Normal"], normal=True)
+            if tmap is not None:
+                row.setdefault("maps", {})["normal"] = tmap
+        for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength", "Alpha"):
+            if _source(inputs[name]) is not None:
+                self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; using its value")
+        return row
+
+    def _linked(self, material, row: dict, node, inputs: dict[str, str], scale: float = 1.0):
+        """Texture maps for the linked ``inputs`` of ``node`` (socket name -> engine input)."""
+        for socket_name, name in inputs.items():
+            socket = node.inputs[socket_name]
+            if _source(socket) is None:
+                continue
+            tmap = self._map(material, socket_name, socket)
+            if tmap is None:
+                continue
+            if name == "emission":  # Emission Color x Strength
+                tmap = TextureMap(tmap.image, tmap.channel, tuple(f * scale for f in tmap.factor), tmap.uv,
+                                  tmap.extension, tmap.closest, tmap.strength)
+            row.setdefault("maps", {})[name] = tmap

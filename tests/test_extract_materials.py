@@ -1,0 +1,114 @@
+"""Textured materials read from real Blender scenes (the bpy module): the glTF importer's metallic-roughness
+pattern with a normal map (``example_blends/cornell_pbr.blend``, made through Blender's own glTF importer), the
+node chains users build (factors, Mapping, named UV maps), and broken textures that render with one warning."""
+import math
+
+import numpy as np
+import pytest
+
+from conftest import EXAMPLES
+from test_extract import add_mesh, extracted
+
+pytestmark = pytest.mark.blender
+
+
+def test_the_gltf_importers_material_extracts_without_a_warning(ext):
+    import bpy
+    bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / "cornell_pbr.blend"))
+    scene, warnings = extracted(bpy)
+    assert warnings == []
+    m = scene.materials
+    pbr = next(i for i, name in enumerate(m.names) if name.startswith("PBR"))
+    maps = {name: m.maps[m.mapped(name)[pbr]] for name in ("base_color", "roughness", "metallic", "normal")}
+    assert all(m.mapped(name)[pbr] >= 0 for name in maps)
+    assert (maps["roughness"].channel, maps["metallic"].channel, maps["base_color"].channel) == (1, 2, -1)
+    assert maps["roughness"].image == maps["metallic"].image != maps["base_color"].image
+    assert m.specular[pbr] == pytest.approx(0.5) and m.ior[pbr] == pytest.approx(1.5)
+    rough = scene.textures[maps["roughness"].image][..., 1]
+    assert rough.min() == pytest.approx(0.25, abs=0.02) and rough.max() == pytest.approx(0.85, abs=0.02)  # Non-Color
+    assert scene.tangents is not None and np.isfinite(scene.tangents).all()
+    textured = scene.material == pbr
+    t = scene.tangents[textured][..., :3].reshape(-1, 3)
+    n = scene.normals[textured].reshape(-1, 3)
+    assert np.abs((t * n).sum(axis=1)).max() < 1e-3 and np.allclose(np.linalg.norm(t, axis=1), 1, atol=1e-3)
+
+
+def _image(bpy, name, rgba, non_color=False):
+    image = bpy.data.images.new(name, 2, 1, float_buffer=True)
+    image.pixels.foreach_set(np.array(rgba, np.float32).ravel())
+    if non_color:
+        image.colorspace_settings.name = "Non-Color"
+    return image
+
+
+def test_factors_mapping_and_a_named_uv_map_are_followed(bpy):
+    mat = bpy.data.materials.new("Chain")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    bsdf = nodes["Principled BSDF"]
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image = _image(bpy, "colours", [[0.2, 0.4, 0.6, 1], [1, 1, 1, 1]])
+    tex.extension = "EXTEND"
+    mix = nodes.new("ShaderNodeMix")
+    mix.data_type, mix.blend_type = "RGBA", "MULTIPLY"
+    mix.inputs[0].default_value = 1.0
+    mix.inputs[7].default_value = (0.5, 1.0, 2.0, 1.0)
+    reroute = nodes.new("NodeReroute")
+    links.new(tex.outputs["Color"], mix.inputs[6])
+    links.new(mix.outputs[2], reroute.inputs[0])
+    links.new(reroute.outputs[0], bsdf.inputs["Base Color"])
+    math_node = nodes.new("ShaderNodeMath")
+    math_node.operation = "MULTIPLY"
+    math_node.inputs[1].default_value = 0.5
+    links.new(tex.outputs["Alpha"], math_node.inputs[0])
+    links.new(math_node.outputs[0], bsdf.inputs["Roughness"])
+    mapping = nodes.new("ShaderNodeMapping")
+    mapping.inputs["Location"].default_value = (0.25, 0.0, 0.0)
+    mapping.inputs["Rotation"].default_value = (0.0, 0.0, math.pi / 2)
+    mapping.inputs["Scale"].default_value = (2.0, 3.0, 1.0)
+    uv = nodes.new("ShaderNodeUVMap")
+    uv.uv_map = "second"
+    links.new(uv.outputs["UV"], mapping.inputs["Vector"])
+    links.new(mapping.outputs["Vector"], tex.inputs["Vector"])
+    obj = add_mesh(bpy, "Tri", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2)], material=mat)
+    obj.data.uv_layers.new(name="first")
+    second = obj.data.uv_layers.new(name="second")
+    for loop, value in zip(second.data, [(0.1, 0.2), (0.3, 0.4), (0.5, 0.6)]):
+        loop.uv = value
+    scene, warnings = extracted(bpy)
+    assert warnings == []
+    m = scene.materials
+    i = m.names.index("Chain")
+    base, rough = m.maps[m.mapped("base_color")[i]], m.maps[m.mapped("roughness")[i]]
+    assert np.allclose(base.factor, (0.5, 1.0, 2.0)) and base.channel == -1 and base.extension == "EXTEND"
+    assert rough.channel == 3 and rough.factor[0] == pytest.approx(0.5)
+    assert np.allclose(base.uv, (0.0, -3.0, 0.25, 2.0, 0.0, 0.0), atol=1e-6)  # R(90) S(2, 3) uv + (0.25, 0)
+    assert np.allclose(scene.uvs[0], [(0.1, 0.2), (0.3, 0.4), (0.5, 0.6)], atol=1e-6)  # the named map
+    assert scene.textures[rough.image].shape == (1, 2, 4)
+
+
+def test_broken_textures_render_with_one_warning_each(bpy):
+    from vpl_gi.vpl_addon.core import passes as P
+    from vpl_gi.vpl_addon.render import RenderSettings, render
+
+    def textured(name, image, obj_name, z, uv=True):
+        mat = bpy.data.materials.new(name)
+        tex = mat.node_tree.nodes.new("ShaderNodeTexImage")
+        tex.image = image
+        mat.node_tree.links.new(tex.outputs["Color"], mat.node_tree.nodes["Principled BSDF"].inputs["Base Color"])
+        obj = add_mesh(bpy, obj_name, [(-1, -1, z), (1, -1, z), (1, 1, z), (-1, 1, z)], [(0, 1, 2, 3)], material=mat)
+        if uv:
+            obj.data.uv_layers.new(name="UVMap")
+
+    textured("Missing", bpy.data.images.load("/nonexistent/wood.png", check_existing=False), "A", 0.0)
+    textured("Empty", bpy.data.images.new("empty", 0, 0), "B", -1.0)
+    textured("NaN", _image(bpy, "nan", [[np.nan, np.inf, -1, 1], [0.5, 0.5, 0.5, 1]]), "C", -2.0)
+    textured("NoUV", _image(bpy, "fine", [[0.5, 0.5, 0.5, 1]] * 2), "D", -3.0, uv=False)
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "SUN"))
+    bpy.context.scene.collection.objects.link(lamp)
+    bpy.context.scene.camera.location = (0, 0, 5)
+    scene, warnings = extracted(bpy)
+    for words in (("'Missing'", "'wood.png'"), ("'Empty'", "'empty'"), ("'D'", "'NoUV'", "'fine'")):
+        assert len([w for w in warnings if all(word in w for word in words)]) == 1, (words, warnings)
+    assert len(warnings) == 3  # the NaN texels are made 0 quietly, as Cycles renders them black
+    out = render(scene, RenderSettings(samples=2, light_samples=1, method="none", passes=P.ALL)).passes
+    assert all(np.isfinite(v).all() and (v >= 0).all() for v in out.values())
