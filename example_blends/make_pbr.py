@@ -30,9 +30,9 @@ SIZE = 64
 
 def _image(name, pixels, non_color):
     image = bpy.data.images.new(name, SIZE, SIZE, alpha=False)
-    image.pixels.foreach_set(np.concatenate([pixels, np.ones((SIZE, SIZE, 1))], axis=2).astype(np.float32).ravel())
-    if non_color:
+    if non_color:  # before the pixels: changing it regenerates a generated image's buffer
         image.colorspace_settings.name = "Non-Color"
+    image.pixels.foreach_set(np.concatenate([pixels, np.ones((SIZE, SIZE, 1))], axis=2).astype(np.float32).ravel())
     image.update()
     return image
 
@@ -105,9 +105,14 @@ def textured_objects(material):
     return made
 
 
-def through_gltf(objects):
-    """Export ``objects`` to a .glb and import them back with Blender's importer (replacing them)."""
+def through_gltf(objects, images):
+    """Export ``objects`` to a .glb and import them back with Blender's importer (replacing them); the images are
+    written as PNG files first, which the exporter copies as they are."""
     with tempfile.TemporaryDirectory() as tmp:
+        for image in images:
+            image.filepath_raw = os.path.join(tmp, image.name + ".png")
+            image.file_format = "PNG"
+            image.save()
         path = os.path.join(tmp, "pbr.glb")
         bpy.ops.object.select_all(action="DESELECT")
         for obj in objects:
@@ -117,9 +122,9 @@ def through_gltf(objects):
         for obj in objects:
             bpy.data.objects.remove(obj)
         bpy.ops.import_scene.gltf(filepath=path)
-    for image in bpy.data.images:
-        if image.source == "FILE" and not image.packed_file:
-            image.pack()
+        for image in bpy.data.images:
+            if image.name not in {i.name for i in images} and not image.packed_file:
+                image.pack()
 
 
 def build_cornell_pbr():
@@ -128,13 +133,13 @@ def build_cornell_pbr():
     add_area_light("SQUARE")
     for name in ("Floor", "TallBox"):
         bpy.data.objects.remove(bpy.data.objects[name])
-    through_gltf(textured_objects(pbr_material(make_images())))
+    images = make_images()
+    through_gltf(textured_objects(pbr_material(images)), images)
     for mat in list(bpy.data.materials):  # the original, replaced by what the importer made of it
         if mat.users == 0:
             bpy.data.materials.remove(mat)
-    for image in list(bpy.data.images):
-        if image.users == 0:
-            bpy.data.images.remove(image)
+    for image in images:
+        bpy.data.images.remove(image)
 
 
 def fingerprint():

@@ -78,6 +78,11 @@ def _source(socket):
     return None
 
 
+def _same(a, b) -> bool:
+    """Whether two socket wrappers are the same socket (bpy makes a new wrapper at every access)."""
+    return a.as_pointer() == b.as_pointer()
+
+
 def _constant(socket):
     """The value of an unlinked socket (a tuple for colours and vectors), None when it is linked."""
     if _source(socket) is not None:
@@ -130,12 +135,11 @@ class MaterialTable:
             self._uv_names, self._image_names = [], []
             self.rows.append(self._read(material))
             self.index[key] = len(self.rows)
-            names = set(self._uv_names)
+            names = sorted({n for n in self._uv_names if n is not None})  # None: the default map
             if len(names) > 1:
                 self.warnings.append(f"material {material.name!r}: its textures use several UV maps "
-                                     f"({', '.join(sorted(n or 'default' for n in names))}); all read "
-                                     f"{self._uv_names[0] or 'the default one'!r}")
-            self.uv_map[self.index[key]] = self._uv_names[0] if self._uv_names else None
+                                     f"({', '.join(names)}); all read {names[0]!r}")
+            self.uv_map[self.index[key]] = names[0] if names else None
             self.images[self.index[key]] = self._image_names
         return self.index[key]
 
@@ -189,14 +193,14 @@ class MaterialTable:
                 linked = [s for s in (a, b) if _source(s) is not None]
                 if f is None or len(linked) != 1:
                     return unsupported(node, " (only a Multiply of one image by a constant colour)")
-                other = np.array(_constant(b if linked[0] is a else a)[:3])
+                other = np.array(_constant(b if _same(linked[0], a) else a)[:3])
                 factor = factor * (1.0 - f + f * other)
                 out = _source(linked[0])
             elif node.type == "MATH" and node.operation == "MULTIPLY" and not node.use_clamp:
                 linked = [s for s in node.inputs[:2] if _source(s) is not None]
                 if len(linked) != 1:
                     return unsupported(node, " (only a Multiply of an image by a constant)")
-                factor = factor * _constant(node.inputs[1] if linked[0] is node.inputs[0] else node.inputs[0])
+                factor = factor * _constant(node.inputs[1] if _same(linked[0], node.inputs[0]) else node.inputs[0])
                 out = _source(linked[0])
             else:
                 return unsupported(node)

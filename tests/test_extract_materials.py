@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from conftest import EXAMPLES
-from test_extract import add_mesh, extracted
+from test_extract import add_mesh, bpy, extracted  # noqa: F401 (bpy: the fixture)
 
 pytestmark = pytest.mark.blender
 
@@ -86,7 +86,7 @@ def test_factors_mapping_and_a_named_uv_map_are_followed(bpy):
     assert scene.textures[rough.image].shape == (1, 2, 4)
 
 
-def test_broken_textures_render_with_one_warning_each(bpy):
+def test_broken_textures_render_with_one_warning_each(bpy, tmp_path):
     from vpl_gi.vpl_addon.core import passes as P
     from vpl_gi.vpl_addon.render import RenderSettings, render
 
@@ -99,15 +99,20 @@ def test_broken_textures_render_with_one_warning_each(bpy):
         if uv:
             obj.data.uv_layers.new(name="UVMap")
 
-    textured("Missing", bpy.data.images.load("/nonexistent/wood.png", check_existing=False), "A", 0.0)
-    textured("Empty", bpy.data.images.new("empty", 0, 0), "B", -1.0)
+    missing = bpy.data.images.new("wood.png", 4, 4)
+    missing.source, missing.filepath = "FILE", "/nonexistent/wood.png"  # as a .blend whose texture moved away
+    textured("Missing", missing, "A", 0.0)
+    (tmp_path / "broken.png").write_bytes(b"not a png")  # a file that loads as an image of no pixels
+    broken = bpy.data.images.new("broken.png", 4, 4)
+    broken.source, broken.filepath = "FILE", str(tmp_path / "broken.png")
+    textured("Empty", broken, "B", -1.0)
     textured("NaN", _image(bpy, "nan", [[np.nan, np.inf, -1, 1], [0.5, 0.5, 0.5, 1]]), "C", -2.0)
     textured("NoUV", _image(bpy, "fine", [[0.5, 0.5, 0.5, 1]] * 2), "D", -3.0, uv=False)
     lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "SUN"))
     bpy.context.scene.collection.objects.link(lamp)
     bpy.context.scene.camera.location = (0, 0, 5)
     scene, warnings = extracted(bpy)
-    for words in (("'Missing'", "'wood.png'"), ("'Empty'", "'empty'"), ("'D'", "'NoUV'", "'fine'")):
+    for words in (("'Missing'", "'wood.png'"), ("'Empty'", "'broken.png'"), ("'D'", "'NoUV'", "'fine'")):
         assert len([w for w in warnings if all(word in w for word in words)]) == 1, (words, warnings)
     assert len(warnings) == 3  # the NaN texels are made 0 quietly, as Cycles renders them black
     out = render(scene, RenderSettings(samples=2, light_samples=1, method="none", passes=P.ALL)).passes
