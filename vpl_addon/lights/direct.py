@@ -89,7 +89,7 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
     out[lo:hi] += group_sum(owner[sel], weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
     if glossy is not None:
         point = owner[sel] + lo
-        lit = np.nonzero(glossy.weight[point].max(axis=1) > 0.0)[0]
+        lit = np.nonzero(glossy.present[point])[0]
         value, p_lobe = glossy.evaluate(wi[sel[lit]], point[lit])
         value *= power_heuristic(light_pdf(sel[lit]), p_lobe)[:, None]
         shine[lo:hi] += group_sum(owner[sel[lit]], weight[sel[lit]] * value, hi - lo)
@@ -101,7 +101,7 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
     light's own pdf. The directions are kept to those the light samples can take (above the shading and the
     geometric surface)."""
     lo, hi, owner, origin, p, ng, ns = at
-    rows = np.nonzero(glossy.weight[owner + lo].max(axis=1) > 0.0)[0]
+    rows = np.nonzero(glossy.present[owner + lo])[0]
     u1, u2 = (u.ravel()[rows] for u in stratified_2d(hi - lo, len(owner) // (hi - lo), rng))  # a net per point
     w, f_cos_pdf, p_lobe = glossy.sample(u1, u2, owner[rows] + lo)
     keep = np.nonzero((p_lobe > 0.0) & (dot(ns[rows], w) > 0.0) & (dot(ng[rows], w) > 0.0))[0]

@@ -311,6 +311,11 @@ class GlossyLobe:
         return GlossyLobe(surface.shading_normal, view, alpha(surface.roughness), surface.specular, surface.edge,
                           weight, surface.dielectric, surface.eta, layer, color)
 
+    @property
+    def present(self) -> np.ndarray:
+        """(K,) bool: whether the point has either lobe."""
+        return (self.weight.max(axis=1) > 0.0) | (self.layer.max(axis=1) > 0.0)
+
     def take(self, rows) -> "GlossyLobe":
         return GlossyLobe(*(getattr(self, f.name)[rows] for f in fields(GlossyLobe)))
 
