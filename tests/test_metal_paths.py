@@ -43,7 +43,8 @@ def _floor_albedo_seen_by_the_patch() -> float:
         f0 = np.tile(F0, (k, 1))
         b = M.f82_b(f0, np.ones((k, 3)))
         comp = M.compensation(np.full(k, ROUGHNESS), f0, b, np.full(k, mu))
-        lobe = M.GlossyLobe(n, v, np.full(k, float(M.alpha(np.array([ROUGHNESS]))[0])), f0, b, comp.scale, comp.color)
+        lobe = M.GlossyLobe(n, v, np.full(k, float(M.alpha(np.array([ROUGHNESS]))[0])), f0, b, comp.scale,
+                            np.zeros((k, 3)), np.ones(k), np.zeros((k, 3)), comp.color)  # no dielectric layer
         _, weight, _ = lobe.sample(rng.random(k), rng.random(k), np.arange(k))
         albedo.append(weight[:, 0].mean())
     return float((np.array(albedo) * 2.0 * mus).sum() / len(mus))
