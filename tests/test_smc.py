@@ -32,7 +32,7 @@ def _points(scene, xy, z=0.0):
     return Surface(position=np.column_stack([xy, np.full(n, z)]), geometric_normal=up, shading_normal=up,
                    prim=np.zeros(n, np.int64), material=np.zeros(n, np.int32), albedo=np.full((n, 3), 0.5),
                    roughness=np.ones(n), metallic=np.zeros(n), emission=np.zeros((n, 3)), specular=np.zeros((n, 3)),
-                   edge=np.zeros((n, 3)), incident=-up)
+                   edge=np.zeros((n, 3)), dielectric=np.zeros((n, 3)), eta=np.ones(n), incident=-up)
 
 
 def test_radiosity_with_one_vertex_is_the_direct_light_and_each_vpl_keeps_its_numbers():

@@ -64,7 +64,8 @@ def _surface(points, normal):
     k = len(points)
     n = np.broadcast_to(np.asarray(normal, float), (k, 3)).copy()
     return Surface(np.asarray(points, float), n, n, np.zeros(k, int), np.zeros(k, int), np.ones((k, 3)),
-                   np.ones(k), np.zeros(k), np.zeros((k, 3)), np.ones((k, 3)), np.zeros((k, 3)), -n)
+                   np.ones(k), np.zeros(k), np.zeros((k, 3)), np.ones((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)),
+                   np.ones(k), -n)
 
 
 def _vpls(points, normal, intensity):
