@@ -15,16 +15,24 @@ differs, so one lobe (``GlossyLobe``) carries their sum.
   albedo at the view angle and E_avg its cosine-weighted mean. Cycles' ``Glossy Color`` is the lobe's estimated
   albedo (E + F_ms (1 - E)) mix(F0, 1, s(mu)), with s the lobe-averaged Schlick weight (1 - v.h)^5.
   E, E_avg and s are integrated here on a grid of roughnesses (``albedo_table``, interpolated, so textured
-  roughness costs nothing more) instead of read from Cycles' tables.
+  roughness costs nothing more) instead of read from Cycles' tables. Here s is the average weighted by the lobe,
+  int f s / int f, so that the albedo estimate is the compensated lobe's integral; Cycles' own s tables
+  (``cycles_precompute.cpp``) average s over its visible-normal samples unweighted by G2 / G1 (and count samples
+  that leave below the horizon as 0), which differs from this by up to about 10 % of s (a few per cent of the
+  albedo) at rough or grazing views.
 - Dielectric specular layer (Cycles' generalized Schlick Fresnel with exponent -eta): F = mix(F0 tint, 1, s) with
-  s = (F_real(v.h, eta) - F0_real) / (1 - F0_real), F_real the unpolarised Fresnel reflectance of a smooth
-  dielectric (Walter et al. 2007, eq. 22). Specular IOR Level l != 0.5 scales F0 by 2 l and sets eta from it
-  (``specular_layer``). Its compensation uses F_ss = mix(F0 tint, 1, s(F_ss_real)), F_ss_real the cosine-weighted
-  mean of F_real; its albedo A = (E + F_ms (1 - E)) mix(F0 tint, 1, s_bar), s_bar the lobe average of s, is its
-  Glossy Color and leaves 1 - max(A) to the diffuse lobe below it (``layer_albedo``).
+  s = clamp((F_real(v.h, eta) - F0_real) / (1 - F0_real), 0, 1), F_real the unpolarised Fresnel reflectance of a
+  smooth dielectric (Walter et al. 2007, eq. 22), F0_real = ((eta - 1) / (eta + 1))^2, and F0 tint clamped to
+  [0, 1]. Specular IOR Level l != 0.5 scales F0 by 2 l and sets eta from it (``specular_layer``). Its compensation
+  uses F_ss = mix(F0 tint, 1, s(F_ss_real)), F_ss_real = 2 int F_real(mu) mu dmu (integrated numerically; Cycles
+  uses Kulla and Conty's fit); its albedo A = (E + F_ms (1 - E)) mix(F0 tint, 1, s_bar), s_bar the lobe average of
+  s, is its Glossy Color per unit weight and leaves 1 - max(A) to the diffuse lobe below it (``layer_albedo``).
+  Cycles reads s_bar for eta < 1 from its eta > 1 table at 1 / eta (same F0); here it is the eta < 1 lobe's own,
+  whose total internal reflection makes it change fast with the view angle: the bilinear tables are within 0.5 %
+  of the lobe for eta > 1 but up to 4 % off for eta < 1 where the half vectors start to pass the critical angle.
 
-Directions: ``v`` toward the viewer, ``l`` toward the light, ``n`` the shading normal, all unit (K,3). ``value`` is
-f(v, l) cos(theta_l) per colour channel, without the material's metallic weight.
+Directions: ``v`` toward the viewer, ``l`` (``wl`` in the code) toward the light, ``n`` the shading normal, all
+unit (K,3). ``value`` is f(v, l) cos(theta_l) per colour channel, without the material's weights.
 """
 from __future__ import annotations
 
@@ -37,9 +45,9 @@ from ..core.sampling import concentric_disk, dot, orthonormal_basis, stratified_
 
 MIN_ALPHA = 1e-3  # sharper lobes are treated as this rough (Cycles switches to a mirror below a^2 = 5e-7)
 MU_BAR = 1.0 / 7.0
-TABLE_MU = 32  # view-angle steps of the albedo tables
+TABLE_MU = 32  # view-cosine steps of the albedo tables
 TABLE_ROUGHNESS = 33  # roughness steps of the tables, 0 to 1
-TABLE_SAMPLES = 32  # per side: 32 x 32 stratified visible normals per table entry
+TABLE_SAMPLES = 2048  # stratified visible normals per table entry (a power of two: Sobol points)
 
 
 def alpha(roughness: np.ndarray) -> np.ndarray:
@@ -63,6 +71,7 @@ def fresnel(f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> np.ndarray:
 
 
 def f0_from_ior(eta: np.ndarray) -> np.ndarray:
+    """Normal-incidence reflectance ((eta - 1) / (eta + 1))^2 of a dielectric of relative IOR ``eta``."""
     return ((eta - 1.0) / (eta + 1.0)) ** 2
 
 
@@ -79,24 +88,28 @@ def dielectric_fresnel(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
 
 def specular_layer(ior: np.ndarray, level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(F0, eta) of the Principled BSDF's dielectric layer from its IOR and Specular IOR Level, as Cycles adjusts
-    them: at level 0.5 the IOR's own F0; otherwise F0 x 2 level and the eta that has it. eta 1: no layer."""
-    ior = np.asarray(ior, np.float64)
+    them (``svm/closure.h``): IOR >= 1e-5 and level >= 0; at level 0.5 F0 = F0(IOR) and eta = IOR; otherwise
+    F0 = F0(IOR) x 2 level and eta = (1 + sqrt F0) / (1 - sqrt F0) with F0 clamped to 0.99 there (inverted when
+    IOR < 1). eta 1 (level 0, or IOR 1): no layer. F0 is returned unclamped; the lobe clamps F0 x tint to 1."""
+    ior = np.maximum(np.asarray(ior, np.float64), 1e-5)
     level = np.maximum(np.asarray(level, np.float64), 0.0)
-    f0 = np.minimum(f0_from_ior(ior) * np.where(level == 0.5, 1.0, 2.0 * level), 0.999)
-    root = np.sqrt(f0)
+    adjust = level != 0.5
+    f0 = f0_from_ior(ior) * np.where(adjust, 2.0 * level, 1.0)
+    root = np.sqrt(np.clip(f0, 0.0, 0.99))
     eta = (1.0 + root) / (1.0 - root)
-    eta = np.where(level == 0.5, ior, np.where(ior < 1.0, 1.0 / eta, eta))
-    return f0, np.where(f0 > 0.0, eta, 1.0)
+    eta = np.where(adjust, np.where(ior < 1.0, 1.0 / eta, eta), ior)
+    return f0, eta
 
 
-def _interpolation(eta: np.ndarray, f0: np.ndarray, real: np.ndarray) -> np.ndarray:
+def _interpolation(f0: np.ndarray | float, real: np.ndarray) -> np.ndarray:
     """s of the generalized Schlick Fresnel: where the real reflectance sits between F0_real and 1."""
     return np.clip((real - f0) / np.maximum(1.0 - f0, 1e-12), 0.0, 1.0)
 
 
 def dielectric_layer_fresnel(f0t: np.ndarray, eta: np.ndarray, mu: np.ndarray) -> np.ndarray:
-    """(K,3) reflectance of the dielectric layer at cos ``mu`` between the view and the microfacet normal."""
-    s = _interpolation(eta, f0_from_ior(eta), dielectric_fresnel(mu, eta))
+    """(K,3) reflectance of the dielectric layer, mix(F0 tint, 1, s), at cos ``mu`` between the view and the
+    microfacet normal (``f0t`` F0 x tint, clamped to [0, 1] by the caller)."""
+    s = _interpolation(f0_from_ior(eta), dielectric_fresnel(mu, eta))
     return f0t + (1.0 - f0t) * s[:, None]
 
 
@@ -109,12 +122,12 @@ def _d(a2: np.ndarray, cos_h: np.ndarray) -> np.ndarray:
     return a2 / (np.pi * (1.0 + (a2 - 1.0) * cos_h * cos_h) ** 2)
 
 
-def evaluate(n, v, l, a, f0, b):
+def evaluate(n, v, wl, a, f0, b):
     """(value (K,3) = F D G2 / (4 cos_v), pdf (K,) of ``sample`` choosing l): zero where either direction is
     below the shading normal."""
-    cos_v, cos_l = dot(n, v), dot(n, l)
+    cos_v, cos_l = dot(n, v), dot(n, wl)
     ok = (cos_v > 0.0) & (cos_l > 0.0)
-    h = v + l
+    h = v + wl
     h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
     a2 = a * a
     d = _d(a2, np.clip(dot(n, h), 0.0, 1.0))
@@ -144,12 +157,12 @@ def sample(n, v, a, u1, u2):
     hh = np.stack([a * hh[:, 0], a * hh[:, 1], np.maximum(hh[:, 2], 0.0)], axis=1)
     hh /= np.maximum(np.linalg.norm(hh, axis=1, keepdims=True), 1e-300)
     h = hh[:, :1] * t + hh[:, 1:2] * s + hh[:, 2:] * n
-    l = 2.0 * dot(v, h)[:, None] * h - v
+    wl = 2.0 * dot(v, h)[:, None] * h - v
     a2 = a * a
-    cos_l = dot(n, l)
+    cos_l = dot(n, wl)
     lam_v, lam_l = _lambda(a2, dot(n, v)), _lambda(a2, cos_l)
     weight = np.where(cos_l > 0.0, (1.0 + lam_v) / (1.0 + lam_v + lam_l), 0.0)
-    return l, weight, h
+    return wl, weight, h
 
 
 def roughness_grid() -> np.ndarray:
@@ -157,6 +170,7 @@ def roughness_grid() -> np.ndarray:
 
 
 def mu_grid() -> np.ndarray:
+    """(TABLE_MU,) view cosines of the tables: the centres of equal steps in the cosine."""
     return (np.arange(TABLE_MU) + 0.5) / TABLE_MU
 
 
@@ -166,17 +180,18 @@ def _lobe_samples() -> tuple[np.ndarray, np.ndarray]:
     visible-normal samples of the F = 1 lobe at every table entry. Deterministic, so every render sees the same
     tables; any Fresnel's lobe average is a reduction over them."""
     rough, mu = roughness_grid(), mu_grid()
-    count = TABLE_SAMPLES * TABLE_SAMPLES
+    count = TABLE_SAMPLES
     u, w = stratified_2d(1, count, np.random.default_rng(0))
-    cells = len(rough) * len(mu)
-    u1, u2 = np.tile(u.ravel(), cells), np.tile(w.ravel(), cells)
-    m = np.tile(np.repeat(mu, count), len(rough))
+    u1, u2 = np.tile(u.ravel(), len(mu)), np.tile(w.ravel(), len(mu))
+    m = np.repeat(mu, count)
     v = np.stack([np.sqrt(1.0 - m * m), np.zeros_like(m), m], axis=1)
     n = np.tile([0.0, 0.0, 1.0], (len(m), 1))
-    a = np.repeat(alpha(rough), len(mu) * count)
-    _, weight, h = sample(n, v, a, u1, u2)
-    shape = (len(rough), len(mu), count)
-    return weight.reshape(shape).astype(np.float32), np.clip(dot(v, h), 0.0, 1.0).reshape(shape).astype(np.float32)
+    g = np.empty((len(rough), len(mu), count), np.float32)
+    vh = np.empty_like(g)
+    for i, r in enumerate(rough):  # a roughness at a time: smaller temporaries, and faster
+        _, weight, h = sample(n, v, np.full(len(m), float(alpha(r))), u1, u2)
+        g[i], vh[i] = weight.reshape(len(mu), count), np.clip(dot(v, h), 0.0, 1.0).reshape(len(mu), count)
+    return g, vh
 
 
 @lru_cache(maxsize=1)
@@ -190,17 +205,27 @@ def _metal_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return e, s, e_avg
 
 
-@lru_cache(maxsize=32)
+ETA_DIGITS = 4  # the dielectric tables are made per eta rounded to this many decimals
+
+
+def dielectric_fss(eta: float) -> float:
+    """F_ss_real = 2 int_0^1 F_real(mu, eta) mu dmu, the cosine-weighted hemispherical mean of the dielectric
+    Fresnel (midpoint rule on 4096 steps; Cycles' ``fresnel_dielectric_Fss`` is a fit of the same integral)."""
+    mu = (np.arange(4096) + 0.5) / 4096
+    return float(np.sum(2.0 * dielectric_fresnel(mu, eta) * mu) / 4096)
+
+
+@lru_cache(maxsize=256)
 def _dielectric_tables(eta: float) -> tuple[np.ndarray, float]:
-    """(s_bar (roughness, mu), s of F_ss_real) of the dielectric layer of relative IOR ``eta``."""
+    """(s_bar (roughness, mu), s of F_ss_real) of the dielectric layer of relative IOR ``eta``: a reduction over
+    the shared lobe samples (about 30 ms)."""
     g, vh = _lobe_samples()
-    e = _metal_tables()[0]
     f0 = float(f0_from_ior(eta))
-    s = _interpolation(eta, f0, dielectric_fresnel(vh.astype(np.float64), eta))
-    s_bar = (g * s).mean(axis=2) / np.maximum(e, 1e-300)
-    mu = (np.arange(256) + 0.5) / 256
-    f_ss_real = float(np.sum(2.0 * dielectric_fresnel(mu, eta) * mu) / 256)
-    return s_bar, float(_interpolation(eta, f0, f_ss_real))
+    s_bar = np.empty(g.shape[:2])
+    for i in range(len(g)):  # a roughness at a time
+        s = _interpolation(f0, dielectric_fresnel(vh[i].astype(np.float64), eta))
+        s_bar[i] = np.einsum("ij,ij->i", g[i], s) / g.shape[2]
+    return s_bar / np.maximum(_metal_tables()[0], 1e-300), float(_interpolation(f0, dielectric_fss(eta)))
 
 
 def _on_grid(table: np.ndarray, roughness: np.ndarray, mu: np.ndarray | None = None) -> np.ndarray:
@@ -253,12 +278,15 @@ def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.nd
 
 def _dielectric_compensation(roughness, f0t, eta, mu) -> Compensation:
     """The dielectric layer's compensation and albedo A (its Glossy Color per unit weight); zero colour and unit
-    scale where eta is 1 (no layer)."""
+    scale where eta is 1 (no layer). ``f0t`` is F0 x tint, clamped to [0, 1] here as Cycles does."""
+    f0t = np.clip(np.asarray(f0t, np.float64), 0.0, 1.0)
+    eta = np.asarray(eta, np.float64)
     scale, color = np.ones_like(f0t), np.zeros_like(f0t)
     e_tab, _, e_avg_tab = _metal_tables()
-    for value in np.unique(eta[eta != 1.0]):
-        rows = np.nonzero(eta == value)[0]
-        s_bar_tab, s_ss = _dielectric_tables(round(float(value), 4))
+    key = np.where(eta != 1.0, np.round(eta, ETA_DIGITS), np.nan)  # NaN: no layer, in no group
+    for value in np.unique(key[eta != 1.0]):
+        rows = np.nonzero(key == value)[0]
+        s_bar_tab, s_ss = _dielectric_tables(float(value))
         r, m, f = roughness[rows], mu[rows], f0t[rows]
         e = _on_grid(e_tab, r, m)[:, None]
         sc, albedo = _scale(f + (1.0 - f) * s_ss, e, _on_grid(e_avg_tab, r)[:, None])
@@ -268,16 +296,19 @@ def _dielectric_compensation(roughness, f0t, eta, mu) -> Compensation:
 
 
 def layer_albedo(roughness: np.ndarray, f0t: np.ndarray, eta: np.ndarray, mu: np.ndarray) -> np.ndarray:
-    """(K,3) albedo A of the dielectric layer seen at view cosines ``mu``: the diffuse lobe below keeps
-    1 - max(A) of its weight (Cycles' ``closure_layering_weight``)."""
+    """(K,3) albedo A of the dielectric layer per unit closure weight, seen at view cosines ``mu``, for layers of
+    F0 x tint ``f0t`` (K,3) and relative IOR ``eta`` (K,) (1: no layer, A = 0): (E + F_ms (1 - E)) mix(F0 tint, 1,
+    s_bar). The diffuse lobe below keeps 1 - max(A) of its weight (Cycles' ``closure_layering_weight``)."""
     return _dielectric_compensation(roughness, f0t, eta, mu).color
 
 
 @dataclass
 class GlossyLobe:
     """The glossy lobes at a set of points, seen from their viewers: the metallic lobe (weight Metallic x its
-    compensation) plus the dielectric layer (weight 1 - Metallic x its compensation), f cos with the weights folded
-    in, and Cycles' ``Glossy Color`` of each point (the sum of both lobes' albedos)."""
+    compensation) plus the dielectric layer (weight (1 - Metallic) x its compensation), f cos with the weights
+    folded in, and Cycles' ``Glossy Color`` of each point (Metallic x the metal's albedo + (1 - Metallic) x A).
+    Both lobes have the same D, G2 and visible-normal sampling, so one sample serves their sum; only the Fresnel
+    differs."""
 
     normal: np.ndarray  # (K,3) shading normals
     view: np.ndarray  # (K,3) toward the viewer
@@ -285,7 +316,7 @@ class GlossyLobe:
     f0: np.ndarray  # (K,3) metal
     edge: np.ndarray  # (K,3) metal
     weight: np.ndarray  # (K,3) metallic x compensation scale
-    f0t: np.ndarray  # (K,3) dielectric layer: F0 x Specular Tint
+    f0t: np.ndarray  # (K,3) dielectric layer: F0 x Specular Tint, clamped to [0, 1]
     eta: np.ndarray  # (K,) dielectric layer (1: none)
     layer: np.ndarray  # (K,3) (1 - metallic) x the layer's compensation scale
     color: np.ndarray  # (K,3) Cycles' Glossy Color
@@ -309,7 +340,7 @@ class GlossyLobe:
             layer[coated] = below * comp.scale
             color[coated] += below * comp.color
         return GlossyLobe(surface.shading_normal, view, alpha(surface.roughness), surface.specular, surface.edge,
-                          weight, surface.dielectric, surface.eta, layer, color)
+                          weight, np.clip(surface.dielectric, 0.0, 1.0), surface.eta, layer, color)
 
     @property
     def present(self) -> np.ndarray:
@@ -333,13 +364,13 @@ class GlossyLobe:
             out[coated] += dielectric_layer_fresnel(self.f0t[r], self.eta[r], vh[coated]) * self.layer[r]
         return out
 
-    def evaluate(self, l: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(f cos (R,3) with the weights, pdf (R,) of ``sample``) toward directions ``l`` (R,3) at points ``rows``."""
+    def evaluate(self, wl: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(f cos (R,3) with the weights, pdf (R,) of ``sample``) toward directions ``wl`` (R,3) at points ``rows``."""
         rows = np.asarray(rows)
         n, v = self.normal[rows], self.view[rows]
-        ones = np.ones((len(l), 3))
-        value, pdf = evaluate(n, v, l, self.alpha[rows], ones, np.zeros_like(ones))  # F = 1: D G2 / (4 cos_v)
-        h = v + l
+        ones = np.ones((len(wl), 3))
+        value, pdf = evaluate(n, v, wl, self.alpha[rows], ones, np.zeros_like(ones))  # F = 1: D G2 / (4 cos_v)
+        h = v + wl
         h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
         return value[:, :1] * self.fresnel(dot(v, h), rows), pdf
 
@@ -347,7 +378,7 @@ class GlossyLobe:
         """(l (R,3), f cos / pdf (R,3) with the weights, pdf (R,)) at points ``rows``."""
         rows = np.asarray(rows)
         n, v, a = self.normal[rows], self.view[rows], self.alpha[rows]
-        l, g, h = sample(n, v, a, u1, u2)
-        ones = np.ones((len(l), 3))
-        _, pdf = evaluate(n, v, l, a, ones, np.zeros_like(ones))
-        return l, self.fresnel(dot(v, h), rows) * g[:, None], np.where(g > 0.0, pdf, 0.0)
+        wl, g, h = sample(n, v, a, u1, u2)
+        ones = np.ones((len(wl), 3))
+        _, pdf = evaluate(n, v, wl, a, ones, np.zeros_like(ones))
+        return wl, self.fresnel(dot(v, h), rows) * g[:, None], np.where(g > 0.0, pdf, 0.0)
