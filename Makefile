@@ -49,6 +49,7 @@ examples: $(STAMP)
 	$(BIN)/python example_blends/make_examples.py
 	$(BIN)/python example_blends/make_corridor.py
 	$(BIN)/python example_blends/make_metal.py
+	$(BIN)/python example_blends/make_pbr.py
 	$(BIN)/python example_blends/make_sequences.py
 
 # The public scenes of ../shared/scenes (Mitsuba XML, Cornell measured data) as .blend files in scenes/ (git-ignored;

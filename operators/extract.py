@@ -79,6 +79,7 @@ def _uv_layer(mesh, name: str | None):
 def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warnings) -> np.ndarray:
     """(T,3,2) UVs: each material's triangles in the UV map its textures name."""
     uvs = np.zeros((len(lidx), 3, 2), np.float32)
+    read: dict[str, np.ndarray] = {}  # each layer read once, however many materials use it
     for i in sorted(set(slots)):
         name = materials.uv_map.get(i)
         layer = _uv_layer(mesh, name)
@@ -91,8 +92,10 @@ def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warni
         if name is not None and layer.name != name:
             warnings.append(f"object {obj.name!r}: no UV map {name!r} (material {materials.rows[i - 1]['name']!r}); "
                             f"using {layer.name!r}")
+        if layer.name not in read:
+            read[layer.name] = _array(layer.data, "uv", 2)
         rows = mat == i
-        uvs[rows] = _array(layer.data, "uv", 2)[lidx[rows]]
+        uvs[rows] = read[layer.name][lidx[rows]]
     return uvs
 
 

@@ -14,6 +14,7 @@ naming the material, the input and the node.
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 
@@ -297,6 +298,5 @@ class MaterialTable:
             if tmap is None:
                 continue
             if name == "emission":  # Emission Color x Strength
-                tmap = TextureMap(tmap.image, tmap.channel, tuple(f * scale for f in tmap.factor), tmap.uv,
-                                  tmap.extension, tmap.closest, tmap.strength)
+                tmap = replace(tmap, factor=tuple(f * scale for f in tmap.factor))
             row.setdefault("maps", {})[name] = tmap

@@ -57,17 +57,16 @@ class Surface:
 def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     """Surface data at ``hits`` for the rays ``rows`` (which must have hit), given their unit directions."""
     prim = hits.prim[rows]
-    b1, b2 = hits.u[rows][:, None], hits.v[rows][:, None]
-    b0 = 1.0 - b1 - b2
+    b1, b2 = hits.u[rows], hits.v[rows]
+    bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
     tri = scene.triangles[prim].astype(np.float64)
-    position = b0 * tri[:, 0] + b1 * tri[:, 1] + b2 * tri[:, 2]
+    position = _interpolated(tri, bary)
     ng = normalize(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))  # of these triangles only: O(hits)
-    cn = scene.normals[prim].astype(np.float64)
-    ns = normalize(b0 * cn[:, 0] + b1 * cn[:, 1] + b2 * cn[:, 2])
+    ns = normalize(_interpolated(scene.normals[prim], bary))
     ns = np.where((dot(ns, ns) > 0.5)[:, None], ns, ng)
     mat = scene.material[prim]
     m = scene.materials
-    inputs = _inputs(scene, mat, prim, np.concatenate([b0, b1, b2], axis=1), ns)
+    inputs = _inputs(scene, mat, prim, bary, ns)
     flip = (dot(ng, dirs[rows]) > 0.0)[:, None]  # turned toward the ray after the normal map, as Cycles does
     ng = np.where(flip, -ng, ng)
     ns = np.where(flip, -inputs["normal"], inputs["normal"])
@@ -86,6 +85,11 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
                    specular=base, edge=f82_b(base, tint), dielectric=dielectric, eta=eta, incident=dirs[rows])
 
 
+def _interpolated(corners: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """(K,C) the per-corner values (K,3,C) at barycentric coordinates (K,3), in float64."""
+    return np.einsum("kj,kjc->kc", bary, corners.astype(np.float64))
+
+
 def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:
     """Per point, the material inputs an image can drive: their values, or the textures' where linked; ``normal``
     the shading normal after any normal map (not yet turned toward the ray)."""
@@ -96,17 +100,15 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
     linked = {name: m.mapped(name)[mat] for name in out}
     if not any((ids >= 0).any() for ids in linked.values()):
         return out
-    uv_c = scene.uvs[prim].astype(np.float64)
-    uv = bary[:, :1] * uv_c[:, 0] + bary[:, 1:2] * uv_c[:, 1] + bary[:, 2:] * uv_c[:, 2]
+    uv = _interpolated(scene.uvs[prim], bary)
+    out["normal"] = ns.copy()  # the caller's normals stay as they were; the other inputs are fresh copies
     for name, ids in linked.items():
         for t in np.unique(ids[ids >= 0]):
             sel = np.nonzero(ids == t)[0]
             tmap = m.maps[t]
             if name == "normal":
-                out[name] = out[name].copy()
                 out[name][sel] = _normal_mapped(scene, tmap, prim[sel], bary[sel], ns[sel], uv[sel])
             else:
-                out[name] = out[name].copy()
                 out[name][sel] = lookup(tmap, scene.textures, uv[sel], scalar=name in ("roughness", "metallic"))
     out["roughness"] = np.clip(out["roughness"], 0.0, 1.0)
     out["metallic"] = np.clip(out["metallic"], 0.0, 1.0)
@@ -116,8 +118,7 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
 
 def _normal_mapped(scene, tmap, prim, bary, ns, uv) -> np.ndarray:
     """Cycles' Normal Map node in tangent space (``svm_node_normal_map``) at points with unflipped normals ``ns``."""
-    tc = scene.tangents[prim].astype(np.float64)
-    t4 = bary[:, :1] * tc[:, 0] + bary[:, 1:2] * tc[:, 1] + bary[:, 2:] * tc[:, 2]
+    t4 = _interpolated(scene.tangents[prim], bary)
     t = t4[:, :3] - dot(t4[:, :3], ns)[:, None] * ns
     length = np.linalg.norm(t, axis=1, keepdims=True)
     t = np.where(length > 1e-12, t / np.maximum(length, 1e-300), 0.0)
