@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.sampling import dot, group_sum
+from ..materials.surface import diffuse_cosine
 
 PAIRS_PER_BATCH = 1 << 20
 
@@ -38,13 +39,14 @@ def clamp_distance(surface_area: float, count: int, clamp: float) -> float:
     return clamp * float(np.sqrt(surface_area / (np.pi * count)))
 
 
-def connect(p, ng, ns, q, nq, intensity, tracer, d_min: float) -> np.ndarray:
-    """(M,3) light from VPLs (q, nq, intensity) to points (p, ng, ns), pairwise row by row."""
+def connect(p, ng, ns, smooth, q, nq, intensity, tracer, d_min: float) -> np.ndarray:
+    """(M,3) light from VPLs (q, nq, intensity) to points (p, ng, ns, smooth normal), pairwise row by row; the
+    receiver's cos with the bump shadowing term (``surface.diffuse_cosine``)."""
     w = q - p
     d2 = dot(w, w)
     d = np.sqrt(d2)
     w = w / np.maximum(d, 1e-300)[:, None]
-    cos_x = dot(ns, w)
+    cos_x = diffuse_cosine(ns, smooth, w)
     cos_v = -dot(nq, w)
     ok = np.nonzero((cos_x > 0.0) & (cos_v > 0.0) & (dot(ng, w) > 0.0) & (d > 0.0))[0]
     out = np.zeros((len(p), 3))
@@ -60,7 +62,7 @@ def gather_pairs(surface, point_index, vpls, vpl_index, tracer, d_min) -> np.nda
     """Light of the pairs (point_index[i], vpl_index[i])."""
     s = surface
     return connect(s.position[point_index], s.geometric_normal[point_index], s.shading_normal[point_index],
-                   vpls.position[vpl_index], vpls.normal[vpl_index], vpls.intensity[vpl_index], tracer, d_min)
+                   s.smooth_normal[point_index], vpls.position[vpl_index], vpls.normal[vpl_index], vpls.intensity[vpl_index], tracer, d_min)
 
 
 def sum_pairs(surface, point_index, vpls, vpl_index, tracer, d_min, group, count) -> np.ndarray:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ..core.sampling import dot, group_sum, power_heuristic, stratified_2d
 from ..materials.microfacet import GlossyLobe
+from ..materials.surface import diffuse_cosine
 
 RAYS_PER_BATCH = 1 << 20
 
@@ -54,8 +55,9 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         # shadow rays leave through the side the geometric normal faces (``_accumulate`` keeps only those): one
         # offset origin per point
         origin = tracer.offset_origin(p[lo:hi], ng[lo:hi])
-        p_at, ng_at, ns_at = (np.repeat(a[lo:hi], samples, axis=0) for a in (p, ng, ns))  # each sample's point
-        at = (lo, hi, owner, origin, p_at, ng_at, ns_at)
+        p_at, ng_at, ns_at, smooth_at = (np.repeat(a[lo:hi], samples, axis=0)  # each sample's point
+                                         for a in (p, ng, ns, surface.smooth_normal))
+        at = (lo, hi, owner, origin, p_at, ng_at, ns_at, smooth_at)
         given = numbers or (None,) * 4
         u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
@@ -74,12 +76,13 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
 
 
 def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf):
-    """out[lo:hi] += the light samples' contributions weight * cos / pi * V, summed per point; shine[lo:hi] +=
+    """out[lo:hi] += the light samples' contributions weight * cos / pi * V (cos with the bump shadowing term,
+    ``surface.diffuse_cosine``), summed per point; shine[lo:hi] +=
     weight * (f cos of the glossy lobe) * V * the MIS weight against the lobe's pdf (``light_pdf(rows)``: the
     light samples' own pdf, NaN for no MIS). ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
-    rays' origin at each point, and the position, geometric and shading normal of each sample's point)."""
-    lo, hi, owner, origin, p, ng, ns = at
-    cos = dot(ns, wi)
+    rays' origin at each point, and the position, geometric, shading and smooth normal of each sample's point)."""
+    lo, hi, owner, origin, p, ng, ns, smooth = at
+    cos = diffuse_cosine(ns, smooth, wi)
     total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
     sel = np.nonzero((cos > 0.0) & (dot(ng, wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
     if len(sel) == 0:
@@ -100,7 +103,7 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
     every light the ray finds (``Light.mis``) that is not hidden, times f cos / pdf and the MIS weight against that
     light's own pdf. The directions are kept to those the light samples can take (above the shading and the
     geometric surface)."""
-    lo, hi, owner, origin, p, ng, ns = at
+    lo, hi, owner, origin, p, ng, ns, _ = at
     rows = np.nonzero(glossy.present[owner + lo])[0]
     u1, u2 = (u.ravel()[rows] for u in stratified_2d(hi - lo, len(owner) // (hi - lo), rng))  # a net per point
     w, f_cos_pdf, p_lobe = glossy.sample(u1, u2, owner[rows] + lo)

@@ -118,6 +118,11 @@ def _lambda(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
     return 0.5 * (np.sqrt(1.0 + a2 * np.maximum(1.0 / cos2 - 1.0, 0.0)) - 1.0)
 
 
+def smith_g1(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
+    """GGX's Smith masking G1 = 1 / (1 + Lambda) for alpha^2 ``a2`` at cos ``cos`` (Walter et al. 2007, eq. 34)."""
+    return 1.0 / (1.0 + _lambda(a2, cos))
+
+
 def _d(a2: np.ndarray, cos_h: np.ndarray) -> np.ndarray:
     return a2 / (np.pi * (1.0 + (a2 - 1.0) * cos_h * cos_h) ** 2)
 

@@ -6,8 +6,8 @@ visible normals off a metallic lobe (``microfacet``), and end by Russian roulett
 probability its largest albedo channel, the metallic one with its largest Glossy Color channel) or at the bounce
 limit. The random numbers of a batch are
 Latin-hypercube stratified over its paths. The VPL at a bounce carries the path's
-incident power times albedo / pi; divided by the number of paths (``trace_until``), the whole set estimates the
-indirect light.
+incident power times albedo / pi (times ``surface.arrival_factor`` where a normal map bends the normal), and the
+smooth normal; divided by the number of paths (``trace_until``), the whole set estimates the indirect light.
 """
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ import numpy as np
 from ..core.sampling import LatinHypercube, cosine_hemisphere, dot
 from ..gather.virtual_lights import STANDARD, VirtualLights
 from ..materials.microfacet import GlossyLobe
-from ..materials.surface import shade
+from ..materials.surface import arrival_factor, shade
 
 BATCH_PATHS = 1 << 15
 
@@ -54,8 +54,8 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         surf = shade(scene, dirs, hits, rows)
         incident = power[rows]
         lit = np.nonzero(surf.albedo.max(axis=1) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
-        found.append(VirtualLights(surf.position[lit], surf.shading_normal[lit],
-                                   incident[lit] * surf.albedo[lit] / np.pi, np.full(len(lit), bounce, np.int32),
+        diffuse = surf.albedo * arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
+        found.append(VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi, np.full(len(lit), bounce, np.int32),
                                    np.full(len(lit), STANDARD, np.int8), path[rows][lit]))
         if bounce == max_bounces:
             break
@@ -63,7 +63,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         u = rng.random(len(rows))
         keep = u < choose_diffuse
         new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
-        weight = surf.albedo[keep] / choose_diffuse[keep, None]
+        weight = diffuse[keep] / choose_diffuse[keep, None]
         if glossy:
             shiny = np.nonzero(~keep & surf.glossy)[0]
             lobe = GlossyLobe.of(surf.take(shiny))

@@ -12,7 +12,7 @@ import numpy as np
 from ..core.sampling import cosine_hemisphere, dot, group_sum
 from ..lights.direct import direct_light
 from ..materials.microfacet import GlossyLobe
-from ..materials.surface import Surface
+from ..materials.surface import Surface, bump_factor
 
 # next-event samples at a metallic vertex a camera path extends to: light reaching a diffuse point over metal
 # (a caustic) comes only from them, and a sharp lobe catches a light rarely
@@ -29,18 +29,21 @@ class PathVertices:
         return len(self.owner)
 
     def evaluate(self, w, rows):
-        """(f cos (R,3), pdf (R,)) toward ``w`` at vertices ``rows``."""
+        """(f cos (R,3), pdf (R,)) toward ``w`` at vertices ``rows`` (the diffuse lobe's f cos with the bump
+        shadowing term, ``surface.bump_factor``)."""
         if self.lobe is None:
-            cos = np.maximum(dot(self.point.shading_normal[rows], w), 0.0) / np.pi
-            return np.repeat(cos[:, None], 3, axis=1), cos
+            ns = self.point.shading_normal[rows]
+            cos = np.maximum(dot(ns, w), 0.0) / np.pi
+            return np.repeat((cos * bump_factor(ns, self.point.smooth_normal[rows], w))[:, None], 3, axis=1), cos
         return self.lobe.evaluate(w, rows)
 
     def sample(self, rng):
         """(directions (K,3), f cos / pdf (K,3), pdf (K,)) of the lobe's own sampling."""
         k = len(self.owner)
         if self.lobe is None:
-            w, cos = cosine_hemisphere(rng.random(k), rng.random(k), self.point.shading_normal)
-            return w, np.ones((k, 3)), cos / np.pi
+            ns = self.point.shading_normal
+            w, cos = cosine_hemisphere(rng.random(k), rng.random(k), ns)
+            return w, np.repeat(bump_factor(ns, self.point.smooth_normal, w)[:, None], 3, axis=1), cos / np.pi
         return self.lobe.sample(rng.random(k), rng.random(k), np.arange(k))
 
 

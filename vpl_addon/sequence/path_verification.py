@@ -39,7 +39,7 @@ import numpy as np
 from ..core.sampling import dot
 from ..core.tracer import Hits
 from ..gather.virtual_lights import VirtualLights
-from ..materials.surface import shade
+from ..materials.surface import arrival_factor, shade
 from ..paths.light_paths import BATCH_PATHS, trace_paths, trace_until
 from . import distribution_map as dm
 from .motion import light_digest
@@ -253,12 +253,12 @@ class LightPathStore:
             after = self._lookup(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1, seg["path"],
                                  seg["bounce"])
             old_dir = seg["direction"][np.maximum(after, 0)]
-            new_energy = seg["power"][pending[rows]] * surf.albedo
+            new_energy = seg["power"][pending[rows]] * surf.albedo * arrival_factor(surf)[:, None]
             old_energy = self.vpls.intensity[at[rows]] * (np.pi * self.paths)
             close = np.zeros(len(pending), bool)
             close[rows] = (np.abs(new_energy - old_energy) <= threshold * old_energy).all(axis=1) & \
                 (old_energy.max(axis=1) > 0.0) & ~surf.glossy & \
-                (dot(surf.shading_normal, self.vpls.normal[at[rows]]) >= 1.0 - 1e-9) & \
+                (dot(surf.smooth_normal, self.vpls.normal[at[rows]]) >= 1.0 - 1e-9) & \
                 ((after < 0) | (dot(old_dir, surf.geometric_normal) > 0.0))
             left = ~hits.hit & np.isinf(seg["length"][pending])  # left the scene then and now
             restart.append(pending[~close & ~left])
@@ -267,7 +267,7 @@ class LightPathStore:
             position = surf.position[sel]
             same = np.linalg.norm(position - self.vpls.position[at[close]], axis=1) <= 1e-6 * extent
             self.vpls.position[at[close]] = position
-            self.vpls.normal[at[close]] = surf.shading_normal[sel]
+            self.vpls.normal[at[close]] = surf.smooth_normal[sel]
             seg["length"][done] = hits.t[close]
             after = after[sel]
             go = (after >= 0) & (~same | moved[np.maximum(after, 0)])

@@ -116,6 +116,6 @@ def place(scene, tracer, lights, camera_points, target: int, standard: VirtualLi
     k = len(s2)
     p = density(s2.position, s2.geometric_normal, x1, camera_points, density_paths, tracer, rng)
     weight = 1.0 / np.maximum(p * attempts, 1e-300)
-    vpls = VirtualLights(s2.position, s2.shading_normal, s2.albedo * incident * weight[:, None],
+    vpls = VirtualLights(s2.position, s2.smooth_normal, s2.albedo * incident * weight[:, None],
                          np.ones(k, np.int32), np.full(k, REVERSE, np.int8), np.arange(k))
     return ReverseSet(vpls, s2.geometric_normal, x1, p, attempts)

@@ -253,7 +253,7 @@ def as_virtual_lights(state: SMCState, budget: int, settings_area: str = "vorono
         return VirtualLights.empty()
     area = state.area if settings_area == "voronoi" else 1.0 / (max(1, int(budget)) * state.density)
     surf = state.surface
-    return VirtualLights(surf.position.copy(), surf.shading_normal.copy(), state.radiosity * area[:, None],
+    return VirtualLights(surf.position.copy(), surf.smooth_normal.copy(), state.radiosity * area[:, None],
                          np.ones(len(state), np.int32), np.full(len(state), STANDARD, np.int8), state.seed.copy())
 
 

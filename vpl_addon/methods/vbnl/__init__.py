@@ -98,7 +98,7 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
                                     _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), rng)])
             y = y.take(np.nonzero(y.albedo.max(axis=1) > 0.0)[0])  # lights hold diffusely reflected light only
             found_p.append(y.position)
-            found_n.append(y.shading_normal)
+            found_n.append(y.smooth_normal)
             found += len(y)
         if found >= count or found == 0:
             break
