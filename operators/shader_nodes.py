@@ -92,6 +92,23 @@ def _constant(socket):
     return tuple(value) if hasattr(value, "__len__") else float(value)
 
 
+def _threshold(node) -> tuple[float, object] | None:
+    """(cutoff, the socket compared) of an alpha clip: the glTF importer's 1 - (x < cutoff) (a Math Subtract from 1
+    of a Math Less Than a constant) or a Math Greater Than a constant; None for any other node."""
+    if node.type != "MATH" or node.use_clamp:
+        return None
+    if node.operation == "SUBTRACT" and _constant(node.inputs[0]) == 1.0 and _source(node.inputs[1]) is not None:
+        inner = _source(node.inputs[1]).node
+        if inner.type == "MATH" and inner.operation == "LESS_THAN" and not inner.use_clamp:
+            node = inner
+        else:
+            return None
+    elif node.operation != "GREATER_THAN":
+        return None
+    cutoff, compared = _constant(node.inputs[1]), _source(node.inputs[0])
+    return None if cutoff is None or compared is None else (cutoff, compared)
+
+
 def _mapping_uv(node) -> tuple | None:
     """The UV affine transform (a, b, c, d, e, f) of a Mapping node with constant inputs, None if unsupported."""
     kind = node.vector_type
@@ -167,7 +184,7 @@ class MaterialTable:
     def _map(self, material, label: str, socket, normal: bool = False) -> TextureMap | None:
         """The TextureMap feeding ``socket`` (None with a warning when the chain is not one the engine reads)."""
         out, channel, factor, strength = _source(socket), -1, np.ones(3), 1.0
-        uv_name = None
+        uv_name, cutoff = None, -1.0
 
         def unsupported(node, why=""):
             self.warnings.append(f"material {material.name!r}: {label} from {node.bl_label!r} ({node.name}) is not "
@@ -197,6 +214,8 @@ class MaterialTable:
                 other = np.array(_constant(b if _same(linked[0], a) else a)[:3])
                 factor = factor * (1.0 - f + f * other)
                 out = _source(linked[0])
+            elif label == "Alpha" and cutoff < 0 and (factor == 1.0).all() and _threshold(node) is not None:
+                cutoff, out = _threshold(node)
             elif node.type == "MATH" and node.operation == "MULTIPLY" and not node.use_clamp:
                 linked = [s for s in node.inputs[:2] if _source(s) is not None]
                 if len(linked) != 1:
@@ -239,7 +258,7 @@ class MaterialTable:
         self._uv_names.append(uv_name)
         self._image_names.append(node.image.name)
         return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), tuple(uv),
-                          extension, node.interpolation == "Closest", float(strength))
+                          extension, node.interpolation == "Closest", float(strength), float(cutoff))
 
     def _read(self, material) -> dict:
         row = {"name": material.name}
@@ -278,12 +297,13 @@ class MaterialTable:
         strength = inputs["Emission Strength"].default_value
         row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
         self._linked(material, row, node, {"Base Color": "base_color", "Roughness": "roughness",
-                                           "Metallic": "metallic", "Emission Color": "emission"}, scale=strength)
+                                           "Metallic": "metallic", "Emission Color": "emission", "Alpha": "alpha"},
+                     scale=strength)
         if _source(inputs["Normal"]) is not None:
             tmap = self._map(material, "Normal", inputs["Normal"], normal=True)
             if tmap is not None:
                 row.setdefault("maps", {})["normal"] = tmap
-        for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength", "Alpha"):
+        for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength"):
             if _source(inputs[name]) is not None:
                 self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; using its value")
         return row

@@ -117,3 +117,44 @@ def test_broken_textures_render_with_one_warning_each(bpy, tmp_path):
     assert len(warnings) == 3  # the NaN texels are made 0 quietly, as Cycles renders them black
     out = render(scene, RenderSettings(samples=2, light_samples=1, method="none", passes=P.ALL)).passes
     assert all(np.isfinite(v).all() and (v >= 0).all() for v in out.values())
+
+
+@pytest.mark.parametrize("pattern", ["gltf mask", "greater than", "blend", "power"])
+def test_alpha_clip_and_blend_are_read_and_other_alpha_chains_warn(bpy, pattern):
+    mat = bpy.data.materials.new("Leaf")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    alpha = nodes["Principled BSDF"].inputs["Alpha"]
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image = _image(bpy, "leaf", [[0.2, 0.4, 0.6, 0.0], [1, 1, 1, 1]])
+    factor = nodes.new("ShaderNodeMath")  # the glTF importer's alpha factor, applied before the clip
+    factor.operation = "MULTIPLY"
+    factor.inputs[1].default_value = 0.8
+    links.new(tex.outputs["Alpha"], factor.inputs[0])
+    first = nodes.new("ShaderNodeMath")
+    if pattern == "gltf mask":  # 1 - (a < 0.4)
+        less, first.operation = nodes.new("ShaderNodeMath"), "SUBTRACT"
+        less.operation = "LESS_THAN"
+        less.inputs[1].default_value = 0.4
+        first.inputs[0].default_value = 1.0
+        links.new(factor.outputs[0], less.inputs[0])
+        links.new(less.outputs[0], first.inputs[1])
+    elif pattern in ("greater than", "power"):
+        first.operation = "GREATER_THAN" if pattern == "greater than" else "POWER"
+        first.inputs[1].default_value = 0.4
+        links.new(factor.outputs[0], first.inputs[0])
+    else:
+        first = factor
+    links.new(first.outputs[0], alpha)
+    obj = add_mesh(bpy, "Leaf", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2)], material=mat)
+    obj.data.uv_layers.new(name="UVMap")
+    scene, warnings = extracted(bpy)
+    m = scene.materials
+    i = m.names.index("Leaf")
+    if pattern == "power":
+        assert m.mapped("alpha")[i] < 0 and len(warnings) == 1
+        assert all(word in warnings[0] for word in ("'Leaf'", "Alpha", "Math"))
+        return
+    assert warnings == []
+    tmap = m.maps[m.mapped("alpha")[i]]
+    assert tmap.channel == 3 and tmap.factor[0] == pytest.approx(0.8)
+    assert tmap.cutoff == (-1.0 if pattern == "blend" else pytest.approx(0.4))

@@ -30,6 +30,7 @@ from .gather.bilateral import deinterleave
 from .gather.summing import GatherSettings, clamp_distance, gather
 from .lights import LightSet
 from .lights.direct import direct_light
+from .materials.cutouts import cutouts
 from .materials.microfacet import GlossyLobe
 from .methods import METHODS, MethodContext, MethodSettings, place
 from .paths.gbuffer import GBuffer
@@ -107,7 +108,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     for name, count in scene.dropped.items():
         result.warnings.append(f"object {name!r}: {count} degenerate or non-finite triangles skipped")
     t0 = time.perf_counter()
-    tracer = Tracer(scene.triangles) if sequence is None else sequence.begin(scene)
+    tracer = Tracer(scene.triangles, cutouts=cutouts(scene), seed=settings.seed) if sequence is None \
+        else sequence.begin(scene)
     lights = LightSet(scene)
     if len(lights) == 0:
         result.warnings.append("the scene has no lights: direct and indirect light are black")

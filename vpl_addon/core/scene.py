@@ -30,7 +30,9 @@ class TextureMap:
 
     The value at a UV is ``factor`` x the image's colour (``channel`` -1), one channel (0-2: R, G, B as a Separate
     Color node gives them, 3: the image's alpha) or, for a colour feeding a scalar input, its luminance. For the
-    ``normal`` input the colour is a tangent-space normal (Normal Map node) and ``strength`` its Strength."""
+    ``normal`` input the colour is a tangent-space normal (Normal Map node) and ``strength`` its Strength. A
+    ``cutoff`` (alpha clip, as the glTF importer builds it for a MASK material: 1 - (value < cutoff)) makes the value
+    1 where it reaches the cutoff and 0 below."""
 
     image: int  # index into Scene.textures
     channel: int = -1  # -1 the colour, 0..2 one channel, 3 the alpha
@@ -39,6 +41,7 @@ class TextureMap:
     extension: str = "REPEAT"  # Image Texture extension: REPEAT, EXTEND or CLIP
     closest: bool = False  # interpolation Closest instead of Linear
     strength: float = 1.0  # Normal Map strength
+    cutoff: float = -1.0  # alpha clip threshold on the value; negative: none
 
 
 @dataclass

@@ -6,6 +6,11 @@ float64): a room 100 km from the origin is traced as precisely as one at the ori
 surface they leave by ``offset_origin`` (Waechter and Binder, "A Fast and Robust Method for Avoiding
 Self-Intersection", Ray Tracing Gems ch. 6): a few float ULPs along the geometric normal, with the absolute fallback
 near zero scaled to the scene's extent so tiny and huge scenes behave alike.
+
+Alpha cut-outs (``materials.cutouts``, handed in as ``cutouts``): a hit on a triangle with holes is kept with the
+probability of its opacity; a ray that goes on is traced again from just past the surface, at most
+``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then stops the ray).
+Occlusion queries trace closest hits only for the rays embree's any-hit query found blocked.
 """
 from __future__ import annotations
 
@@ -18,6 +23,7 @@ import numpy as np
 ULP_OFFSET = 16.0  # float32 steps along the normal; Waechter-Binder's 256 moves a point 2 m at 1e5 m from 0
 CHUNK = 1 << 16  # rays per embree call: large enough to amortise Python, small enough to share across threads
 FAR = 1e30
+CUTOUT_LAYERS = 16
 # Benchmarks only: when set, called as OCCLUSION_RECORDER(origins, dirs, tmax) with every occlusion batch, so
 # bench/ can replay the engine's own shadow rays through raw embreex. None (always, in renders): no cost.
 OCCLUSION_RECORDER = None
@@ -45,7 +51,7 @@ class Hits:
 class Tracer:
     """Closest-hit and occlusion queries against the scene's triangles."""
 
-    def __init__(self, triangles: np.ndarray, threads: int | None = None):
+    def __init__(self, triangles: np.ndarray, threads: int | None = None, cutouts=None, seed: int = 0):
         tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
         self.center = 0.5 * (tri.min(axis=(0, 1)) + tri.max(axis=(0, 1))) if len(tri) else np.zeros(3)
         tri = np.ascontiguousarray(tri - self.center, dtype=np.float32)
@@ -55,6 +61,9 @@ class Tracer:
         extent = float(np.abs(tri).max()) if len(tri) else 1.0
         self.extent = extent if extent > 0.0 else 1.0
         self._scene = None
+        self.cutouts = cutouts  # materials.cutouts.Cutouts of these triangles, or None (no holes)
+        self._rng = np.random.default_rng(seed)
+        self._triangles, self._normals = tri, None
         if len(tri):
             from embreex import rtcore_scene
             from embreex.mesh_construction import TriangleMesh
@@ -84,7 +93,38 @@ class Tracer:
         return parts
 
     def intersect(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
-        """Closest hits of rays with unit directions, up to distance tmax (scalar or per ray)."""
+        """Closest hits of rays with unit directions, up to distance tmax (scalar or per ray), through the holes of
+        ``cutouts``."""
+        hits = self._closest(origins, dirs, tmax)
+        return hits if self.cutouts is None else self._through_holes(origins, dirs, tmax, hits)
+
+    def _through_holes(self, origins, dirs, tmax, hits: Hits) -> Hits:
+        """``hits`` with the rays that pass through a hole (``Cutouts.passes``) traced on until they stop."""
+        tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
+        todo = np.nonzero(hits.hit)[0]
+        for _ in range(CUTOUT_LAYERS):
+            todo = todo[self.cutouts.prims[hits.prim[todo]]]
+            if len(todo):
+                todo = todo[self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], self._rng)]
+            if not len(todo):
+                break
+            t, d = hits.t[todo], dirs[todo]
+            if self._normals is None:
+                tri = self._triangles.astype(np.float64)
+                ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+                self._normals = ng / np.maximum(np.linalg.norm(ng, axis=1, keepdims=True), 1e-300)
+            ng = self._normals[hits.prim[todo]]
+            through = np.where((np.einsum("ij,ij->i", ng, d) >= 0.0)[:, None], ng, -ng)
+            origin = np.asarray(origins[todo], np.float64)
+            start = self.offset_origin(origin + d * t[:, None], through)
+            t = np.einsum("ij,ij->i", start - origin, d)  # where the new segment starts along the ray
+            beyond = self._closest(start, d, tmax[todo] - t)
+            hits.prim[todo], hits.u[todo], hits.v[todo] = beyond.prim, beyond.u, beyond.v
+            hits.t[todo] = t + beyond.t  # inf for rays that now miss
+            todo = todo[beyond.hit]
+        return hits
+
+    def _closest(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
         n = len(origins)
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,))
         if self._scene is None or n == 0:
@@ -109,7 +149,11 @@ class Tracer:
         if OCCLUSION_RECORDER is not None:
             OCCLUSION_RECORDER(origins, dirs, tmax)
         parts = self._run(origins, dirs, tmax, "OCCLUDED")
-        return np.concatenate(parts) >= 0
+        blocked = np.concatenate(parts) >= 0
+        if self.cutouts is not None:  # blocked by a hole? the closest hits through holes tell
+            rows = np.nonzero(blocked)[0]
+            blocked[rows] = self.intersect(origins[rows], dirs[rows], tmax[rows]).hit
+        return blocked
 
     def offset_origin(self, p: np.ndarray, n: np.ndarray) -> np.ndarray:
         """Move points p off their surface along the (geometric) normal n, toward the side n points to: by

@@ -62,7 +62,8 @@ def gather_pairs(surface, point_index, vpls, vpl_index, tracer, d_min) -> np.nda
     """Light of the pairs (point_index[i], vpl_index[i])."""
     s = surface
     return connect(s.position[point_index], s.geometric_normal[point_index], s.shading_normal[point_index],
-                   s.smooth_normal[point_index], vpls.position[vpl_index], vpls.normal[vpl_index], vpls.intensity[vpl_index], tracer, d_min)
+                   s.smooth_normal[point_index], vpls.position[vpl_index], vpls.normal[vpl_index],
+                   vpls.intensity[vpl_index], tracer, d_min)
 
 
 def sum_pairs(surface, point_index, vpls, vpl_index, tracer, d_min, group, count) -> np.ndarray:

@@ -67,9 +67,9 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     b1, b2 = hits.u[rows], hits.v[rows]
     bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
     tri = scene.triangles[prim].astype(np.float64)
-    position = _interpolated(tri, bary)
+    position = interpolated(tri, bary)
     ng = normalize(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))  # of these triangles only: O(hits)
-    ns = normalize(_interpolated(scene.normals[prim], bary))
+    ns = normalize(interpolated(scene.normals[prim], bary))
     ns = np.where((dot(ns, ns) > 0.5)[:, None], ns, ng)
     mat = scene.material[prim]
     m = scene.materials
@@ -94,7 +94,7 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
                    smooth_normal=smooth)
 
 
-def _interpolated(corners: np.ndarray, bary: np.ndarray) -> np.ndarray:
+def interpolated(corners: np.ndarray, bary: np.ndarray) -> np.ndarray:
     """(K,C) the per-corner values (K,3,C) at barycentric coordinates (K,3), in float64."""
     return np.einsum("kj,kjc->kc", bary, corners.astype(np.float64))
 
@@ -109,7 +109,7 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
     linked = {name: m.mapped(name)[mat] for name in out}
     if not any((ids >= 0).any() for ids in linked.values()):
         return out
-    uv = _interpolated(scene.uvs[prim], bary)
+    uv = interpolated(scene.uvs[prim], bary)
     out["normal"] = ns.copy()  # the caller's normals stay as they were; the other inputs are fresh copies
     for name, ids in linked.items():
         for t in np.unique(ids[ids >= 0]):
@@ -127,7 +127,7 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
 
 def _normal_mapped(scene, tmap, prim, bary, ns, uv) -> np.ndarray:
     """Cycles' Normal Map node in tangent space (``svm_node_normal_map``) at points with unflipped normals ``ns``."""
-    t4 = _interpolated(scene.tangents[prim], bary)
+    t4 = interpolated(scene.tangents[prim], bary)
     t = t4[:, :3] - dot(t4[:, :3], ns)[:, None] * ns
     length = np.linalg.norm(t, axis=1, keepdims=True)
     t = np.where(length > 1e-12, t / np.maximum(length, 1e-300), 0.0)

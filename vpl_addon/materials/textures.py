@@ -60,6 +60,8 @@ def lookup(tmap: TextureMap, textures: list[np.ndarray], uv: np.ndarray, scalar:
     factor = np.asarray(tmap.factor, np.float64)
     if tmap.channel >= 0:
         value = texel[:, tmap.channel].astype(np.float64)
-        return value * factor[0] if scalar else value[:, None] * factor
-    rgb = texel[:, :3].astype(np.float64) * factor
-    return luminance(rgb) if scalar else rgb
+        value = value * factor[0] if scalar else value[:, None] * factor
+    else:
+        value = texel[:, :3].astype(np.float64) * factor
+        value = luminance(value) if scalar else value
+    return (value >= tmap.cutoff).astype(np.float64) if tmap.cutoff >= 0.0 else value

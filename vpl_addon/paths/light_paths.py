@@ -55,8 +55,9 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         incident = power[rows]
         lit = np.nonzero(surf.albedo.max(axis=1) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
         diffuse = surf.albedo * arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
-        found.append(VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi, np.full(len(lit), bounce, np.int32),
-                                   np.full(len(lit), STANDARD, np.int8), path[rows][lit]))
+        found.append(VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi,
+                                   np.full(len(lit), bounce, np.int32), np.full(len(lit), STANDARD, np.int8),
+                                   path[rows][lit]))
         if bounce == max_bounces:
             break
         choose_diffuse = np.clip(surf.albedo.max(axis=1), 0.0, 1.0)

@@ -18,6 +18,7 @@ from ..materials.surface import Surface, bump_factor
 # (a caustic) comes only from them, and a sharp lobe catches a light rarely
 GLOSSY_LIGHT_SAMPLES = 8
 
+
 @dataclass
 class PathVertices:
     point: Surface

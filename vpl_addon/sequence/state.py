@@ -25,6 +25,7 @@ import pickle
 import numpy as np
 
 from ..core.tracer import Tracer
+from ..materials.cutouts import cutouts
 from .motion import Motion, Snapshot
 
 
@@ -62,6 +63,7 @@ class SequenceState:
             self._tracer_digest = snapshot.triangles
             self.bvh_builds += 1
         self._tracer.rays_traced = 0
+        self._tracer.cutouts = cutouts(scene)  # alpha may change from frame to frame without the triangles
         return self._tracer
 
     def place(self, module, context, settings):

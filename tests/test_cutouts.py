@@ -1,0 +1,103 @@
+"""Alpha cut-outs (``materials.cutouts``): every ray the tracer answers goes through the holes of a material's Alpha,
+stochastically where it is between 0 and 1, and a clip threshold makes a map's alpha 0 or 1."""
+import numpy as np
+import pytest
+
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene, TextureMap
+from vpl_addon.core.tracer import CUTOUT_LAYERS, Tracer
+from vpl_addon.lights import LightSet
+from vpl_addon.lights.direct import diffuse_direct
+from vpl_addon.lights.sun import SunLight
+from vpl_addon.materials.cutouts import cutouts
+from vpl_addon.materials.surface import shade
+from vpl_addon.materials.textures import lookup
+
+CAM = Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=False))
+QUAD = np.array([[[0, 0, 0], [1, 0, 0], [1, 1, 0]], [[0, 0, 0], [1, 1, 0], [0, 1, 0]]], float)
+QUAD_UV = np.array([[[0, 0], [1, 0], [1, 1]], [[0, 0], [1, 1], [0, 1]]], float)
+SUN = SunLight("sun", [0.0, 0.0, -1.0], [2.0] * 3)
+# a 2x1 alpha image: the left half (u < 0.5) opaque, the right half a hole
+HALF = np.array([[[1.0, 1.0, 1.0, 1.0], [1.0, 1.0, 1.0, 0.0]]], np.float32)
+
+
+def fence_scene(fence: dict, layers: int = 1):
+    """A white floor (z = 0) under ``layers`` fence quads (z = 0.5, 0.6, ...) of material ``fence``."""
+    tri = [QUAD] + [QUAD + [0.0, 0.0, 0.5 + 0.1 * i] for i in range(layers)]
+    rows = [{"name": "floor", "base_color": (1, 1, 1)}, dict(fence, name="fence")]
+    return Scene.build(np.concatenate(tri), Materials.make(rows), [SUN], CAM, uvs=np.tile(QUAD_UV, (layers + 1, 1, 1)),
+                       material=[1, 1] + [2, 2] * layers, textures=[HALF])
+
+
+def tracer_of(scene, seed=0):
+    return Tracer(scene.triangles, threads=1, cutouts=cutouts(scene), seed=seed)
+
+
+def floor_light(scene, xy, samples=64):
+    """Diffuse Direct on the floor at points ``xy``, found by rays from below (they see the floor's underside
+    turned toward them, so shade them from above instead)."""
+    tracer = tracer_of(scene)
+    origins = np.column_stack([xy, np.full(len(xy), 0.25)])
+    down = np.tile([0.0, 0.0, -1.0], (len(xy), 1))
+    hits = tracer.intersect(origins, down)
+    assert (hits.prim < 2).all()  # the floor
+    surface = shade(scene, down, hits, np.arange(len(xy)))
+    return diffuse_direct(surface, LightSet(scene), tracer, samples, np.random.default_rng(3))[:, 0]
+
+
+def test_an_opaque_scene_has_no_cutouts():
+    assert cutouts(fence_scene({"base_color": (1, 1, 1)})) is None
+
+
+def test_the_shadow_of_an_alpha_map_is_cut_where_the_map_is_clear():
+    scene = fence_scene({"maps": {"alpha": TextureMap(0, channel=3, closest=True)}})
+    xy = np.array([[0.2, 0.3], [0.3, 0.7], [0.7, 0.3], [0.8, 0.8]])
+    light = floor_light(scene, xy)
+    assert np.allclose(light[:2], 0.0)  # under the opaque half
+    assert np.allclose(light[2:], 2.0 / np.pi)  # under the hole: the full sun
+
+
+def test_camera_rays_see_through_the_hole_and_stop_on_the_fence():
+    scene = fence_scene({"maps": {"alpha": TextureMap(0, channel=3, closest=True)}})
+    xy = np.array([[0.25, 0.5], [0.75, 0.5]])
+    hits = tracer_of(scene).intersect(np.column_stack([xy, [2.0, 2.0]]), np.tile([0.0, 0.0, -1.0], (2, 1)))
+    assert hits.prim[0] >= 2 and np.isclose(hits.t[0], 1.5)  # the fence
+    assert hits.prim[1] < 2 and np.isclose(hits.t[1], 2.0, atol=1e-4)  # the floor, through the hole
+
+
+def test_partial_alpha_lets_through_its_share_of_light_and_of_rays():
+    scene = fence_scene({"alpha": 0.25})
+    light = floor_light(scene, np.full((200, 2), 0.5), samples=64)
+    assert abs(light.mean() / (2.0 / np.pi) - 0.75) < 0.02  # 12800 shadow rays: 0.4 % sd
+    k = 20000
+    tracer = tracer_of(fence_scene({"alpha": 0.5}, layers=3), seed=1)
+    hits = tracer.intersect(np.tile([0.5, 0.5, 2.0], (k, 1)), np.tile([0.0, 0.0, -1.0], (k, 1)))
+    assert abs((hits.prim < 2).mean() - 0.125) < 0.01  # through three halves
+    assert abs(tracer.occluded(np.tile([0.5, 0.5, 0.01], (k, 1)), np.tile([0.0, 0.0, 1.0], (k, 1)),
+                               np.full(k, 10.0)).mean() - 0.875) < 0.01
+
+
+def test_a_fully_clear_stack_deeper_than_the_layer_limit_stops_the_ray_at_the_limit():
+    scene = fence_scene({"alpha": 0.0}, layers=CUTOUT_LAYERS + 2)
+    hits = tracer_of(scene).intersect(np.array([[0.5, 0.5, 10.0]]), np.array([[0.0, 0.0, -1.0]]))
+    assert hits.hit[0] and hits.prim[0] >= 2 and np.isfinite(hits.t).all()
+
+
+def test_alpha_clip_makes_the_map_zero_or_one():
+    ramp = np.linspace(0.0, 1.0, 11, dtype=np.float32)[None, :, None].repeat(4, axis=2)
+    uv = np.column_stack([np.linspace(0.01, 0.99, 50), np.full(50, 0.5)])
+    clipped = lookup(TextureMap(0, channel=3, factor=(0.8, 0.8, 0.8), cutoff=0.5), [ramp], uv, scalar=True)
+    plain = lookup(TextureMap(0, channel=3, factor=(0.8, 0.8, 0.8)), [ramp], uv, scalar=True)
+    assert set(np.unique(clipped)) == {0.0, 1.0}
+    assert np.array_equal(clipped, (plain >= 0.5).astype(float))  # the factor applies before the threshold
+
+
+@pytest.mark.parametrize("bad", [np.nan, -3.0, 7.0])
+def test_bad_alpha_values_are_read_as_opacity_in_0_1(bad):
+    image = np.full((1, 1, 4), bad, np.float32)
+    scene = Scene.build(np.concatenate([QUAD, QUAD + [0, 0, 0.5]]),
+                        Materials.make([{"name": "f"}, {"name": "x", "maps": {"alpha": TextureMap(0, channel=3)}}]),
+                        [SUN], CAM, uvs=np.tile(QUAD_UV, (2, 1, 1)), material=[1, 1, 2, 2], textures=[image])
+    found = cutouts(scene)
+    opacity = found.opacity(np.array([2, 3]), np.array([0.3, 0.3]), np.array([0.3, 0.3]))
+    assert np.isfinite(opacity).all() and ((opacity >= 0) & (opacity <= 1)).all()
