@@ -1,7 +1,7 @@
 """A fence cut out of a plane by its image's alpha (the glTF importer's alpha clip: Alpha = 1 - (a < 0.5))
-between a low sun and a floor, seen from above: the engine's ``Diffuse Direct`` against Cycles on the same .blend, so the stripes of light
-through the fence fall where Cycles puts them (rMAE, not only the mean), and the camera sees the floor through the
-fence's holes."""
+between a low sun and a floor, seen from above: the engine's ``Diffuse Direct`` against Cycles on the same .blend,
+so the stripes of light through the fence fall where Cycles puts them (rMAE, not only the mean), and the camera
+sees the floor through the fence's holes."""
 import json
 
 import numpy as np
