@@ -7,7 +7,7 @@ import pytest
 from stress_scenes import (budget, ALBEDO_ONE, BLACK, METHODS, WHITE, box, look_at, room, small_settings, tally,
                            with_triangles)
 from vpl_addon.core.camera import Camera, view_window
-from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.core.scene import Materials, Scene, TextureMap
 from vpl_addon.gather.summing import GatherSettings
 from vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
 from vpl_addon.render import render
@@ -87,6 +87,24 @@ def cases():
         uvs=np.random.default_rng(0).random((12, 3, 2)) * 1e6,
         textures=[np.array([[[np.nan, 1, 1], [np.inf, -5, 1]], [[1, 1, 1], [0.5, 0.5, 0.5]]])]), {}
     yield "material refers to a missing texture", room(materials=materials(texture=3)), {}
+    uvs = np.random.default_rng(2).random((12, 3, 2)) * 3.0
+    wild_normals = np.array([[[np.nan, 0.5, 1.0], [0.5, 0.5, 0.5]], [[0.5, 0.5, 0.0], [1.0, 1.0, 1e9]]])
+    bad_tangents = np.full((12, 3, 4), np.nan)
+    bad_tangents[6:] = 0.0
+    for strength in (1.0, 1e6, -3.0):
+        yield f"normal map of NaN, zero and backward normals, strength {strength:g}, bad tangents", Scene.build(
+            base.triangles, materials(maps={"normal": TextureMap(0, strength=strength)}), base.lights, base.camera,
+            material=base.material, uvs=uvs, textures=[wild_normals], tangents=bad_tangents), {}
+    yield "walls of alpha 0 (every ray goes through)", room(materials=materials(alpha=0.0)), {}
+    yield "half-transparent albedo-1 room, 100 bounces", room(materials=materials(
+        alpha=0.5, base_color=(1.0, 1.0, 1.0)), max_bounces=100), {}
+    yield "alpha map of NaN and out-of-range texels, clipped", Scene.build(
+        base.triangles, materials(maps={"alpha": TextureMap(0, channel=3, cutoff=0.5)}), base.lights, base.camera,
+        material=base.material, uvs=uvs, textures=[np.array([[[1, 1, 1, np.nan], [1, 1, 1, -4.0]],
+                                                             [[1, 1, 1, 9.0], [1, 1, 1, 0.5]]])]), {}
+    yield "specular layer of IOR 1e6, level 1e3, NaN tint", room(materials=materials(
+        ior=1e6, specular=1e3, specular_tint=(np.nan, 1.0, 2.0))), {}
+    yield "specular layer of IOR below 1, rough 0", room(materials=materials(ior=0.2, specular=0.5, roughness=0.0)), {}
     # lights
     yield "no light at all", room(lights=[]), {}
     yield "only world light (open box)", Scene.build(open_box, WHITE, [], outside, material=np.ones(10, int),
