@@ -276,6 +276,16 @@ class MaterialTable:
             row["emission"] = tuple(c * strength for c in surface.inputs["Color"].default_value[:3])
             self._linked(material, row, surface, {"Color": "emission"}, scale=strength)
             return row
+        if surface.type == "BSDF_GLASS":
+            row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
+            row["roughness"] = surface.inputs["Roughness"].default_value
+            row["ior"] = surface.inputs["IOR"].default_value
+            row["transmission"], row["specular"] = 1.0, 0.5
+            for name in ("Color", "Roughness", "IOR"):
+                if _source(surface.inputs[name]) is not None:
+                    self.warnings.append(f"material {material.name!r}: linked {name!r} of the Glass BSDF is not "
+                                         f"supported; using its value")
+            return row
         if surface.type == "BSDF_DIFFUSE":
             row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
             row["roughness"] = 1.0
@@ -294,6 +304,10 @@ class MaterialTable:
         row["ior"] = inputs["IOR"].default_value
         row["specular"] = inputs["Specular IOR Level"].default_value
         row["alpha"] = inputs["Alpha"].default_value
+        row["transmission"] = inputs["Transmission Weight"].default_value
+        if 0.0 < row["transmission"] < 1.0:
+            self.warnings.append(f"material {material.name!r}: Transmission Weight {row['transmission']:g} is read "
+                                 f"as {'glass' if row['transmission'] >= 0.5 else 'opaque'}")
         strength = inputs["Emission Strength"].default_value
         row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
         self._linked(material, row, node, {"Base Color": "base_color", "Roughness": "roughness",
@@ -303,7 +317,7 @@ class MaterialTable:
             tmap = self._map(material, "Normal", inputs["Normal"], normal=True)
             if tmap is not None:
                 row.setdefault("maps", {})["normal"] = tmap
-        for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength"):
+        for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength", "Transmission Weight"):
             if _source(inputs[name]) is not None:
                 self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; using its value")
         return row

@@ -101,3 +101,27 @@ def test_bad_alpha_values_are_read_as_opacity_in_0_1(bad):
     found = cutouts(scene)
     opacity = found.opacity(np.array([2, 3]), np.array([0.3, 0.3]), np.array([0.3, 0.3]))
     assert np.isfinite(opacity).all() and ((opacity >= 0) & (opacity <= 1)).all()
+
+
+def test_glass_passes_one_minus_fresnel_straight_through_and_its_light_is_reported_apart():
+    from vpl_addon.lights.direct import direct_light
+    from vpl_addon.materials.microfacet import dielectric_fresnel
+    scene = fence_scene({"transmission": 1.0, "ior": 1.5, "base_color": (1.0, 1.0, 1.0)})
+    tracer = tracer_of(scene)
+    xy = np.full((400, 2), 0.5)
+    down = np.tile([0.0, 0.0, -1.0], (len(xy), 1))
+    hits = tracer.intersect(np.column_stack([xy, np.full(len(xy), 0.25)]), down)
+    floor = shade(scene, down, hits, np.arange(len(xy)))
+    through = np.zeros((len(xy), 3))
+    direct, _ = direct_light(floor, LightSet(scene), tracer, 16, np.random.default_rng(4), through=through)
+    assert np.allclose(direct, 0.0)  # Cycles' shadow rays stop at glass: none of it is direct light
+    expected = (1.0 - dielectric_fresnel(np.array([1.0]), np.array([1.5]))[0]) * 2.0 / np.pi
+    assert abs(through.mean() / expected - 1.0) < 0.01  # 6400 rays at 4 % stopped: 0.25 % sd
+    # a camera ray that stops at the pane sees a white mirror: no diffuse colour, all reflection
+    k = 4000
+    from_above = np.tile([0.3, 0.6, 2.0], (k, 1))
+    hits = tracer.intersect(from_above, np.tile([0.0, 0.0, -1.0], (k, 1)))
+    on_pane = np.nonzero(hits.prim >= 2)[0]
+    assert abs(len(on_pane) / k - 0.04) < 0.01
+    pane = shade(scene, np.tile([0.0, 0.0, -1.0], (k, 1)), hits, on_pane)
+    assert np.allclose(pane.albedo, 0.0) and np.allclose(pane.metallic, 1.0) and np.allclose(pane.specular, 1.0)

@@ -142,6 +142,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
 
         images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want | {P.DIFFUSE_COLOR}}
         indirect = np.zeros((w * h, 3))
+        # the light of shadow rays through glass: Cycles' Diffuse Indirect (a transmission bounce), by pixel
+        glazed = np.zeros((w * h, 3)) if need_direct and bounces > 0 and scene.materials.glass.any() else None
         # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
         shine, shine_color, glossy_color = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros((w * h, 3))
         # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
@@ -195,11 +197,12 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     u, v = stratified_2d(len(pixels), count, rng)
                     deal = np.argsort(rng.random((len(pixels), count)), axis=1)
                     numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
+                through = None if glazed is None else np.zeros_like(surf.albedo)
                 direct, glossy = direct_light(surf, lights, tracer, settings.light_samples, rng,
-                                              numbers=tuple(numbers), glossy=lobe)
+                                              numbers=tuple(numbers), glossy=lobe, through=through)
                 guard("direct light", {P.DIFFUSE_DIRECT: direct, P.GLOSSY_DIRECT: glossy})
             else:
-                direct, glossy = np.zeros_like(surf.albedo), np.zeros_like(surf.albedo)
+                direct, glossy, through = np.zeros_like(surf.albedo), np.zeros_like(surf.albedo), None
             marks["direct"] = time.perf_counter()
             if need_indirect:
                 rows = gbuf.first(diffuse[:, 0], gather_spp)  # the gathering samples of each lobe
@@ -238,6 +241,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             if P.DIFFUSE_DIRECT in want:
                 images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct),
                                                            images[P.DIFFUSE_COLOR][pixels])
+            if through is not None:
+                guard("direct light", {P.DIFFUSE_INDIRECT: through})
+                images[P.COMBINED][pixels, :3] += gbuf.splat(surf.albedo * through)
+                glazed[pixels] = _divide(gbuf.splat(surf.albedo * through), images[P.DIFFUSE_COLOR][pixels])
             if lobe is not None:
                 color = glossy_color[pixels] = gbuf.splat(lobe.color)
                 for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy), color))):
@@ -286,7 +293,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         timing["filter"] = time.perf_counter() - t0
         result.info["vpls"] = len(vpls)
     if P.DIFFUSE_INDIRECT in want:
-        images[P.DIFFUSE_INDIRECT] = indirect
+        images[P.DIFFUSE_INDIRECT] = indirect if glazed is None else indirect + glazed
     result.seconds.update(timing)
     result.rays = tracer.rays_traced
     result.passes = {name: images[name].reshape(h, w, -1).astype(np.float32) for name in want

@@ -62,10 +62,22 @@ class Materials:
     alpha: np.ndarray  # (M,) coverage: 1 opaque, 0 a hole
     maps: list[TextureMap] = field(default_factory=list)
     map_of: dict[str, np.ndarray] = field(default_factory=dict)  # input -> (M,) int index into maps, -1 none
+    transmission: np.ndarray | None = None  # (M,) Transmission Weight (Glass BSDF: 1); None: 0 everywhere
+
+    def __post_init__(self):
+        if self.transmission is None:
+            self.transmission = np.zeros(len(self.names), np.float32)
+
+    @property
+    def glass(self) -> np.ndarray:
+        """(M,) bool: materials rendered as thin glass (``materials.cutouts``): Transmission Weight of at least 0.5
+        on a dielectric (metallic below 0.5)."""
+        return (self.transmission >= 0.5) & (self.metallic < 0.5)
 
     @staticmethod
     def make(rows: list[dict]) -> "Materials":
-        """Rows of {name, base_color, roughness, metallic, emission, specular_tint, ior, specular, alpha, maps}
+        """Rows of {name, base_color, roughness, metallic, emission, specular_tint, ior, specular, alpha,
+        transmission, maps}
         (``maps``: input name -> TextureMap; ``texture``: an image index for Base Color alone); missing keys take
         defaults: a grey diffuse without a specular layer."""
         rows = [{"name": "VPL fallback grey"}] + list(rows)
@@ -96,8 +108,10 @@ class Materials:
             specular=col("specular", 0.0),
             alpha=col("alpha", 1.0),
             maps=maps, map_of=map_of,
+            transmission=col("transmission", 0.0),
         )
-        for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha):
+        for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha,
+                  m.transmission):
             np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
         np.nan_to_num(m.ior, copy=False, nan=1.5, posinf=1.5, neginf=1.5)
         np.clip(m.base_color, 0.0, 1.0, out=m.base_color)
@@ -105,6 +119,7 @@ class Materials:
         np.clip(m.metallic, 0.0, 1.0, out=m.metallic)
         np.clip(m.specular_tint, 0.0, 1.0, out=m.specular_tint)
         np.clip(m.alpha, 0.0, 1.0, out=m.alpha)
+        np.clip(m.transmission, 0.0, 1.0, out=m.transmission)
         np.clip(m.ior, 1e-3, 1e3, out=m.ior)
         np.maximum(m.specular, 0.0, out=m.specular)
         np.maximum(m.emission, 0.0, out=m.emission)
@@ -124,7 +139,7 @@ class Materials:
         """Whether any material has a glossy (GGX) lobe, metallic or the dielectric specular layer: without one,
         nothing glossy is computed."""
         return bool((self.metallic > 0.0).any() | (self.mapped("metallic") >= 0).any()
-                    | ((self.specular > 0.0) & (self.ior != 1.0)).any())
+                    | ((self.specular > 0.0) & (self.ior != 1.0)).any() | self.glass.any())
 
 
 @dataclass

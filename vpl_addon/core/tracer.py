@@ -7,9 +7,9 @@ surface they leave by ``offset_origin`` (Waechter and Binder, "A Fast and Robust
 Self-Intersection", Ray Tracing Gems ch. 6): a few float ULPs along the geometric normal, with the absolute fallback
 near zero scaled to the scene's extent so tiny and huge scenes behave alike.
 
-Alpha cut-outs (``materials.cutouts``, handed in as ``cutouts``): a hit on a triangle with holes is kept with the
-probability of its opacity; a ray that goes on is traced again from just past the surface, at most
-``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then stops the ray).
+Alpha cut-outs and thin glass (``materials.cutouts``, handed in as ``cutouts``): a hit on a triangle with holes
+or glass is kept with the probability of its opacity; a ray that goes on is traced again from just past the
+surface, at most ``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then stops the ray).
 Occlusion queries trace closest hits only for the rays embree's any-hit query found blocked.
 """
 from __future__ import annotations
@@ -93,36 +93,45 @@ class Tracer:
         return parts
 
     def intersect(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
-        """Closest hits of rays with unit directions, up to distance tmax (scalar or per ray), through the holes of
-        ``cutouts``."""
-        hits = self._closest(origins, dirs, tmax)
-        return hits if self.cutouts is None else self._through_holes(origins, dirs, tmax, hits)
+        """Closest hits of rays with unit directions, up to distance tmax (scalar or per ray), through the holes and
+        panes of ``cutouts``."""
+        return self.intersect_through(origins, dirs, tmax)[0]
 
-    def _through_holes(self, origins, dirs, tmax, hits: Hits) -> Hits:
-        """``hits`` with the rays that pass through a hole (``Cutouts.passes``) traced on until they stop."""
+    def intersect_through(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray]:
+        """(``intersect``'s hits, (N,) bool: which rays went through glass on the way)."""
+        hits = self._closest(origins, dirs, tmax)
+        crossed = np.zeros(len(origins), bool)
+        if self.cutouts is None:
+            return hits, crossed
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         todo = np.nonzero(hits.hit)[0]
         for _ in range(CUTOUT_LAYERS):
             todo = todo[self.cutouts.prims[hits.prim[todo]]]
-            if len(todo):
-                todo = todo[self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], self._rng)]
             if not len(todo):
                 break
-            t, d = hits.t[todo], dirs[todo]
-            if self._normals is None:
-                tri = self._triangles.astype(np.float64)
-                ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-                self._normals = ng / np.maximum(np.linalg.norm(ng, axis=1, keepdims=True), 1e-300)
-            ng = self._normals[hits.prim[todo]]
-            through = np.where((np.einsum("ij,ij->i", ng, d) >= 0.0)[:, None], ng, -ng)
+            d, ng = dirs[todo], self._face_normals()[hits.prim[todo]]
+            cos = np.einsum("ij,ij->i", ng, d)
+            on, glass = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], cos, self._rng)
+            crossed[todo[glass]] = True
+            todo, d, ng, cos = todo[on], d[on], ng[on], cos[on]
+            if not len(todo):
+                break
             origin = np.asarray(origins[todo], np.float64)
-            start = self.offset_origin(origin + d * t[:, None], through)
+            through = np.where((cos >= 0.0)[:, None], ng, -ng)
+            start = self.offset_origin(origin + d * hits.t[todo][:, None], through)
             t = np.einsum("ij,ij->i", start - origin, d)  # where the new segment starts along the ray
             beyond = self._closest(start, d, tmax[todo] - t)
             hits.prim[todo], hits.u[todo], hits.v[todo] = beyond.prim, beyond.u, beyond.v
             hits.t[todo] = t + beyond.t  # inf for rays that now miss
             todo = todo[beyond.hit]
-        return hits
+        return hits, crossed
+
+    def _face_normals(self) -> np.ndarray:
+        if self._normals is None:
+            tri = self._triangles.astype(np.float64)
+            ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+            self._normals = ng / np.maximum(np.linalg.norm(ng, axis=1, keepdims=True), 1e-300)
+        return self._normals
 
     def _closest(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
         n = len(origins)
@@ -142,18 +151,24 @@ class Tracer:
 
     def occluded(self, origins: np.ndarray, dirs: np.ndarray, tmax) -> np.ndarray:
         """True where something lies along the ray before tmax."""
+        return self.occluded_through(origins, dirs, tmax)[0]
+
+    def occluded_through(self, origins: np.ndarray, dirs: np.ndarray, tmax) -> tuple[np.ndarray, np.ndarray]:
+        """(``occluded``, (N,) bool: which unblocked rays went through glass)."""
         n = len(origins)
         if self._scene is None or n == 0:
-            return np.zeros(n, bool)
+            return np.zeros(n, bool), np.zeros(n, bool)
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,))
         if OCCLUSION_RECORDER is not None:
             OCCLUSION_RECORDER(origins, dirs, tmax)
         parts = self._run(origins, dirs, tmax, "OCCLUDED")
         blocked = np.concatenate(parts) >= 0
-        if self.cutouts is not None:  # blocked by a hole? the closest hits through holes tell
+        crossed = np.zeros(n, bool)
+        if self.cutouts is not None:  # blocked by a hole or a pane? the closest hits through them tell
             rows = np.nonzero(blocked)[0]
-            blocked[rows] = self.intersect(origins[rows], dirs[rows], tmax[rows]).hit
-        return blocked
+            hits, through = self.intersect_through(origins[rows], dirs[rows], tmax[rows])
+            blocked[rows], crossed[rows] = hits.hit, through & ~hits.hit
+        return blocked, crossed
 
     def offset_origin(self, p: np.ndarray, n: np.ndarray) -> np.ndarray:
         """Move points p off their surface along the (geometric) normal n, toward the side n points to: by
@@ -169,19 +184,27 @@ class Tracer:
 
     def visible(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
                 target_normal: np.ndarray | None = None, origin: np.ndarray | None = None) -> np.ndarray:
+        """``visible_through``'s visibility alone."""
+        return self.visible_through(p, n, dirs, dist, target_normal, origin)[0]
+
+    def visible_through(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
+                        target_normal: np.ndarray | None = None,
+                        origin: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Visibility from surface points p (geometric normal n) along unit dirs to a point at distance dist.
 
         The origin is offset to the side of n that dirs leaves through; when the target lies on a surface too,
         its normal shortens the segment by the same robust margin so the target does not occlude itself (a zero
         target normal means the target is not on geometry). ``origin``: the offset origins when the caller has
-        them already (many rays leaving one point through the same side, ``offset_origin(p, n)``).
+        them already (many rays leaving one point through the same side, ``offset_origin(p, n)``). Returns
+        (visible, whether the visible ray went through glass).
         """
         if origin is None:
             side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
             origin = self.offset_origin(p, side)
         finite = np.isfinite(dist)
         if not finite.any():  # distant lights only: rays to infinity
-            return ~self.occluded(origin, dirs, FAR)
+            blocked, crossed = self.occluded_through(origin, dirs, FAR)
+            return ~blocked, crossed
         target = p + dirs * np.where(finite, dist, 0.0)[:, None]
         if target_normal is not None:
             t_side = np.where((np.einsum("ij,ij->i", target_normal, dirs) <= 0.0)[:, None],
@@ -192,4 +215,5 @@ class Tracer:
         new_dirs = np.where(finite[:, None] & (seg_len[:, None] > 0), seg / np.maximum(seg_len, 1e-300)[:, None],
                             dirs)
         tmax = np.where(finite, seg_len * (1.0 - 1e-5), FAR)
-        return ~self.occluded(origin, new_dirs, tmax)
+        blocked, crossed = self.occluded_through(origin, new_dirs, tmax)
+        return ~blocked, crossed

@@ -33,18 +33,22 @@ def diffuse_direct(surface, lights, tracer, samples: int, rng: np.random.Generat
 
 
 def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator,
-                 numbers: tuple[np.ndarray, ...] | None = None, glossy: GlossyLobe | None = None):
+                 numbers: tuple[np.ndarray, ...] | None = None, glossy: GlossyLobe | None = None,
+                 through: np.ndarray | None = None):
     """(diffuse (K,3), glossy (K,3)): at each point of a ``Surface``, averaged over ``samples`` light samples, the
     direct radiance a white Lambertian surface reflects and, if ``glossy`` is given, the radiance its metallic lobe
     reflects toward the viewer (zero otherwise).
 
     Each light sample is one sample of a local light (chosen by power) plus, if the world emits, one
     cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples) or None: the uniform
-    numbers for the local and the world samples, instead of independent ones."""
+    numbers for the local and the world samples, instead of independent ones. ``through``: a (K,3) array that
+    takes the diffuse part of the light whose shadow ray went through glass (``materials.cutouts``), which Cycles
+    counts as indirect (a transmission bounce); None leaves it in the first output."""
     k = len(surface)
     out, shine = np.zeros((k, 3)), np.zeros((k, 3))
     if k == 0 or len(lights) == 0 or samples <= 0:
         return out, shine
+    glazed = None if through is None else np.zeros((k, 3))
     p = surface.position
     ng = surface.geometric_normal
     ns = surface.shading_normal
@@ -65,22 +69,25 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
             wi, dist, weight, target_n, which = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
             _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
-                        lambda rows: lights.local_pdf(p_at[rows], ns_at[rows], wi[rows], which[rows]))
+                        lambda rows: lights.local_pdf(p_at[rows], ns_at[rows], wi[rows], which[rows]), glazed)
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
             _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
-                        lambda rows: lights.world.mis(p_at[rows], ns_at[rows], wi[rows])[2])
+                        lambda rows: lights.world.mis(p_at[rows], ns_at[rows], wi[rows])[2], glazed)
         if glossy is not None:
             _lobe_samples(shine, at, lights, tracer, glossy, rng)
+    if through is not None:
+        through += glazed / samples
     return out / samples, shine / samples
 
 
-def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf):
+def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf, through=None):
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V (cos with the bump shadowing term,
     ``surface.diffuse_cosine``), summed per point; shine[lo:hi] +=
     weight * (f cos of the glossy lobe) * V * the MIS weight against the lobe's pdf (``light_pdf(rows)``: the
     light samples' own pdf, NaN for no MIS). ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
-    rays' origin at each point, and the position, geometric, shading and smooth normal of each sample's point)."""
+    rays' origin at each point, and the position, geometric, shading and smooth normal of each sample's point);
+    ``through`` (or ``out`` when None) takes the diffuse light of the rays that went through glass."""
     lo, hi, owner, origin, p, ng, ns, smooth = at
     cos = diffuse_cosine(ns, smooth, wi)
     total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
@@ -88,8 +95,13 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    sel = sel[tracer.visible(p[sel], ng[sel], wi[sel], dist[sel], on_geometry, origin[owner[sel]])]
-    out[lo:hi] += group_sum(owner[sel], weight[sel] * (cos[sel] / np.pi)[:, None], hi - lo)
+    seen, glass = tracer.visible_through(p[sel], ng[sel], wi[sel], dist[sel], on_geometry, origin[owner[sel]])
+    sel, glass = sel[seen], glass[seen]
+    light = weight[sel] * (cos[sel] / np.pi)[:, None]
+    if through is not None and glass.any():
+        through[lo:hi] += group_sum(owner[sel[glass]], light[glass], hi - lo)
+        light[glass] = 0.0
+    out[lo:hi] += group_sum(owner[sel], light, hi - lo)
     if glossy is not None:
         point = owner[sel] + lo
         lit = np.nonzero(glossy.present[point])[0]

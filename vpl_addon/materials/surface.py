@@ -81,6 +81,9 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     base, metallic, roughness = np.clip(inputs["base_color"], 0.0, 1.0), inputs["metallic"], inputs["roughness"]
     tint = m.specular_tint[mat].astype(np.float64)
     f0, eta = specular_layer(m.ior[mat].astype(np.float64), m.specular[mat].astype(np.float64))
+    glass = np.nonzero(m.glass[mat])[0]
+    if len(glass):  # a ray stopped by a pane (``cutouts``): all it does is reflect, as a white mirror
+        base[glass], metallic[glass], tint[glass], eta[glass], f0[glass] = 1.0, 1.0, 1.0, 1.0, 0.0
     dielectric = f0[:, None] * tint
     below = (1.0 - metallic)[:, None] * base
     layered = np.nonzero(eta != 1.0)[0]

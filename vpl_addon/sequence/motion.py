@@ -65,7 +65,7 @@ class Snapshot:
         m = scene.materials
         maps = np.frombuffer(repr(m.maps).encode(), np.uint8)  # the same text in every process (not hash())
         shading = _digest(m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.ior, m.specular,
-                          m.alpha, maps, *m.map_of.values(), np.asarray(scene.world),
+                          m.alpha, m.transmission, maps, *m.map_of.values(), np.asarray(scene.world),
                           np.array([scene.max_bounces]), *scene.textures, scene.uvs,
                           *(() if scene.tangents is None else (scene.tangents,)),
                           *(() if scene.environment is None else (scene.environment.image, scene.environment.rotation)))

@@ -1,0 +1,94 @@
+"""A room lit only by the sun through a glass window pane (a 2 cm Glass BSDF slab in an opening of one wall): the
+engine's ``Diffuse Indirect`` against Cycles on the same .blend. Cycles finds the sunlit patch on the floor only by
+BSDF samples that pass the pane (its shadow rays stop at glass), so it counts the patch as indirect light, and so
+does the engine (``materials.cutouts``: shadow rays through glass report it)."""
+import json
+
+import numpy as np
+import pytest
+
+from conftest import run_cli
+
+pytestmark = pytest.mark.blender
+
+
+def quad(bpy, scene, name, corners, material):
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
+    mesh.materials.append(material)
+    scene.collection.objects.link(bpy.data.objects.new(name, mesh))
+
+
+def window_blend(tmp_path):
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 40
+    white = bpy.data.materials.new("White")
+    if white.node_tree is None:  # Blender < 5.0
+        white.use_nodes = True
+    nodes = white.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    white.node_tree.links.new(diffuse.outputs[0], nodes["Material Output"].inputs["Surface"])
+    # a closed 4 x 4 x 2.5 m room; the wall at y = 2 has an opening x in [-0.6, 0.6], z in [0.8, 1.8]
+    x0, x1, y0, y1, top = -2.0, 2.0, -2.0, 2.0, 2.5
+    for name, corners in (("Floor", [(x0, y0, 0), (x1, y0, 0), (x1, y1, 0), (x0, y1, 0)]),
+                          ("Ceiling", [(x0, y0, top), (x0, y1, top), (x1, y1, top), (x1, y0, top)]),
+                          ("Back", [(x0, y0, 0), (x0, y0, top), (x1, y0, top), (x1, y0, 0)]),
+                          ("Left", [(x0, y0, 0), (x0, y1, 0), (x0, y1, top), (x0, y0, top)]),
+                          ("Right", [(x1, y0, 0), (x1, y0, top), (x1, y1, top), (x1, y1, 0)]),
+                          ("WallL", [(x0, y1, 0), (-0.6, y1, 0), (-0.6, y1, top), (x0, y1, top)]),
+                          ("WallR", [(0.6, y1, 0), (x1, y1, 0), (x1, y1, top), (0.6, y1, top)]),
+                          ("Sill", [(-0.6, y1, 0), (0.6, y1, 0), (0.6, y1, 0.8), (-0.6, y1, 0.8)]),
+                          ("Lintel", [(-0.6, y1, 1.8), (0.6, y1, 1.8), (0.6, y1, top), (-0.6, y1, top)])):
+        quad(bpy, scene, name, corners, white)
+    glass = bpy.data.materials.new("Glass")
+    if glass.node_tree is None:
+        glass.use_nodes = True
+    nodes = glass.node_tree.nodes
+    nodes.remove(nodes["Principled BSDF"])
+    bsdf = nodes.new("ShaderNodeBsdfGlass")
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.inputs["IOR"].default_value = 1.5
+    glass.node_tree.links.new(bsdf.outputs[0], nodes["Material Output"].inputs["Surface"])
+    pane = bpy.data.meshes.new("Pane")
+    c = [(x, y, z) for z in (0.8, 1.8) for y in (1.99, 2.01) for x in (-0.6, 0.6)]
+    pane.from_pydata(c, [], [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)])
+    pane.materials.append(glass)
+    scene.collection.objects.link(bpy.data.objects.new("Pane", pane))
+
+    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
+    sun.data.energy = 5.0
+    sun.data.angle = np.radians(20.0)  # wide enough that Cycles' BSDF samples find it through the pane
+    sun.rotation_euler = (np.radians(-55.0), 0.0, 0.0)  # from outside the window, 35 degrees high
+    scene.collection.objects.link(sun)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location = (0.0, -1.9, 2.0)
+    cam.rotation_euler = (np.radians(90.0 - 38.7), 0.0, 0.0)  # down at the floor; the window stays out of view
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("Black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
+    path = tmp_path / "window.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def test_the_sun_through_a_glass_pane_lights_the_room_as_in_cycles(ext, tmp_path):
+    blend = window_blend(tmp_path)
+    ours, reference = tmp_path / "ours.exr", tmp_path / "reference.exr"
+    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "16")
+    assert code == 0 and "warning" not in stderr.lower(), stderr
+    code, _, stderr = run_cli("reference", blend, "-o", reference, "--samples", 1024, "--cache-dir",
+                              tmp_path / "cache")
+    assert code == 0, stderr
+    code, stdout, stderr = run_cli("compare", ours, reference, "--passes", "Diffuse Indirect,Diffuse Direct")
+    assert code == 0, stderr
+    found = json.loads(stdout)
+    print(f"window: Diffuse Indirect ratio {found['Diffuse Indirect']['mean_ratio']:.3f} rMAE "
+          f"{found['Diffuse Indirect']['rmae']:.3f}; Diffuse Direct ratio {found['Diffuse Direct']['mean_ratio']}")
+    assert abs(found["Diffuse Indirect"]["mean_ratio"] - 1.0) <= 0.10
