@@ -105,6 +105,14 @@ def cases():
     yield "specular layer of IOR 1e6, level 1e3, NaN tint", room(materials=materials(
         ior=1e6, specular=1e3, specular_tint=(np.nan, 1.0, 2.0))), {}
     yield "specular layer of IOR below 1, rough 0", room(materials=materials(ior=0.2, specular=0.5, roughness=0.0)), {}
+    yield "room of clear glass, 100 bounces", room(materials=materials(transmission=1.0, ior=1.5, roughness=0.0,
+                                                                     base_color=(1.0, 1.0, 1.0)), max_bounces=100), {}
+    yield "glass of IOR 1 and NaN transmission and tint", with_triangles(base, solid_block, material=2, materials=(
+        Materials.make([{"name": "w"}, {"name": "odd glass", "transmission": np.nan, "ior": 1.0,
+                                        "base_color": (np.nan, 2.0, -1.0)}]))), {}
+    yield "glass block of IOR 1e6 around the light", with_triangles(
+        room(lights=[PointLight("boxed", [0.5, 0.5, 0.3], [100.0] * 3)]), solid_block, material=2, materials=(
+            Materials.make([{"name": "w"}, {"name": "dense glass", "transmission": 1.0, "ior": 1e6}]))), {}
     # lights
     yield "no light at all", room(lights=[]), {}
     yield "only world light (open box)", Scene.build(open_box, WHITE, [], outside, material=np.ones(10, int),
