@@ -2,6 +2,7 @@
 package through ``ext`` (the repo root loaded as ``vpl_gi``, as ``python -m vpl_addon`` does) and the real bpy."""
 from __future__ import annotations
 
+import json
 import os
 import pathlib
 import subprocess
@@ -63,6 +64,25 @@ def run_cli(*args, cwd=ROOT, timeout=600):
     proc = subprocess.run([sys.executable, "-m", "vpl_addon", *map(str, args)], cwd=cwd, capture_output=True,
                           text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": str(ROOT)})
     return proc.returncode, proc.stdout, proc.stderr
+
+
+def pass_errors(image, reference, name="Diffuse Direct") -> dict:
+    """The ``compare`` CLI's errors of one pass of ``image`` against ``reference`` (rMAE, mean ratio, ...)."""
+    code, stdout, stderr = run_cli("compare", image, reference, "--passes", name)
+    assert code == 0, stderr
+    return json.loads(stdout)[name]
+
+
+def camera_and_black_world(bpy, scene, location, rotation=(0.0, 0.0, 0.0)):
+    """Give a scene built in a test its camera (at ``location``, Euler ``rotation``) and a black world."""
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location, cam.rotation_euler = location, rotation
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("Black")
+    world.use_nodes = True
+    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
+    scene.world = world
 
 
 def plane_scene(lights=(), world=(0.0, 0.0, 0.0), size=10.0, height=5.0, res=32, view=2.0, materials=None,

@@ -2,12 +2,11 @@
 between a low sun and a floor, seen from above: the engine's ``Diffuse Direct`` against Cycles on the same .blend,
 so the stripes of light through the fence fall where Cycles puts them (rMAE, not only the mean), and the camera
 sees the floor through the fence's holes."""
-import json
 
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import camera_and_black_world, pass_errors, run_cli
 
 pytestmark = pytest.mark.blender
 
@@ -59,23 +58,11 @@ def fence_blend(tmp_path):
     sun.data.angle = np.radians(1.0)
     sun.rotation_euler = (np.radians(-55.0), 0.0, 0.0)  # from behind the fence, 35 degrees high: a long shadow
     scene.collection.objects.link(sun)
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.location = (0, 0, 7)
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    world = bpy.data.worlds.new("Black")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    scene.world = world
+    camera_and_black_world(bpy, scene, (0.0, 0.0, 7.0))
     path = tmp_path / "fence.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return path
 
-
-def direct_errors(image, reference):
-    code, stdout, stderr = run_cli("compare", image, reference, "--passes", "Diffuse Direct")
-    assert code == 0, stderr
-    return json.loads(stdout)["Diffuse Direct"]
 
 
 def test_a_cut_out_fence_casts_the_shadow_cycles_renders(ext, tmp_path):
@@ -87,7 +74,7 @@ def test_a_cut_out_fence_casts_the_shadow_cycles_renders(ext, tmp_path):
         code, _, stderr = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir",
                                   tmp_path / "cache")
         assert code == 0, stderr
-    e_ours, e_cycles = direct_errors(ours, reference), direct_errors(cycles, reference)
+    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
     print(f"fence: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
           f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
     assert abs(e_ours["mean_ratio"] - 1.0) <= 0.02

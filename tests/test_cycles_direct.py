@@ -1,11 +1,10 @@
 """Extraction and direct light proven against Cycles: on every example scene the engine's ``Diffuse Direct`` at
 64 samples per pixel matches a converged (4096 spp) Cycles reference in mean within 2 %, and its rMAE is no larger
 than Cycles' own at 64 samples per pixel. References are committed; a stale one fails the test."""
-import json
 
 import pytest
 
-from conftest import EXAMPLE_SCENES, EXAMPLES, REFERENCES, run_cli
+from conftest import EXAMPLE_SCENES, EXAMPLES, REFERENCES, pass_errors, run_cli
 
 pytestmark = pytest.mark.blender
 REFERENCE_SAMPLES = 4096
@@ -22,11 +21,6 @@ def test_committed_reference_is_fresh(ext, name):
         f"example_blends/{name}.blend -o tests/references/{name}.exr --samples {REFERENCE_SAMPLES} --overwrite`")
 
 
-def direct_errors(image, reference):
-    code, stdout, stderr = run_cli("compare", image, reference, "--passes", "Diffuse Direct")
-    assert code == 0, stderr
-    return json.loads(stdout)["Diffuse Direct"]
-
 
 @pytest.mark.parametrize("name", EXAMPLE_SCENES)
 def test_diffuse_direct_matches_cycles(ext, name, tmp_path):
@@ -37,7 +31,7 @@ def test_diffuse_direct_matches_cycles(ext, name, tmp_path):
     code, _, stderr = run_cli("reference", EXAMPLES / f"{name}.blend", "-o", cycles, "--samples", "64",
                               "--cache-dir", tmp_path / "cache")
     assert code == 0, stderr
-    e_ours, e_cycles = direct_errors(ours, reference), direct_errors(cycles, reference)
+    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
     print(f"{name}: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
           f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
     assert abs(e_ours["mean_ratio"] - 1.0) <= 0.02

@@ -1,12 +1,11 @@
 """An HDR environment (an Environment Texture rotated by a Mapping node) lights a floor and a block: the engine's
 ``Diffuse Direct`` against Cycles on the same .blend, so the map's orientation, strength and importance sampling are
 Cycles'. The block's shadow from the map's small bright sun is where Cycles puts it (rMAE, not only the mean)."""
-import json
 
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import pass_errors, run_cli
 from test_environment import sky
 
 pytestmark = pytest.mark.blender
@@ -55,11 +54,6 @@ def hdri_blend(tmp_path):
     return path
 
 
-def direct_errors(image, reference):
-    code, stdout, stderr = run_cli("compare", image, reference, "--passes", "Diffuse Direct")
-    assert code == 0, stderr
-    return json.loads(stdout)["Diffuse Direct"]
-
 
 def test_an_hdri_lights_and_shadows_as_in_cycles(ext, tmp_path):
     blend = hdri_blend(tmp_path)
@@ -70,7 +64,7 @@ def test_an_hdri_lights_and_shadows_as_in_cycles(ext, tmp_path):
         code, _, stderr = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir",
                                   tmp_path / "cache")
         assert code == 0, stderr
-    e_ours, e_cycles = direct_errors(ours, reference), direct_errors(cycles, reference)
+    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
     print(f"hdri: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
           f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
     assert abs(e_ours["mean_ratio"] - 1.0) <= 0.02

@@ -2,12 +2,10 @@
 engine's ``Diffuse Indirect`` against Cycles on the same .blend. Cycles finds the sunlit patch on the floor only by
 BSDF samples that pass the pane (its shadow rays stop at glass), so it counts the patch as indirect light, and so
 does the engine (``materials.cutouts``: shadow rays through glass report it)."""
-import json
-
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import camera_and_black_world, pass_errors, run_cli
 
 pytestmark = pytest.mark.blender
 
@@ -64,15 +62,8 @@ def window_blend(tmp_path):
     sun.data.angle = np.radians(20.0)  # wide enough that Cycles' BSDF samples find it through the pane
     sun.rotation_euler = (np.radians(-55.0), 0.0, 0.0)  # from outside the window, 35 degrees high
     scene.collection.objects.link(sun)
-    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
-    cam.location = (0.0, -1.9, 2.0)
-    cam.rotation_euler = (np.radians(90.0 - 38.7), 0.0, 0.0)  # down at the floor; the window stays out of view
-    scene.collection.objects.link(cam)
-    scene.camera = cam
-    world = bpy.data.worlds.new("Black")
-    world.use_nodes = True
-    world.node_tree.nodes["Background"].inputs["Strength"].default_value = 0.0
-    scene.world = world
+    # down at the floor; the window stays out of view
+    camera_and_black_world(bpy, scene, (0.0, -1.9, 2.0), (np.radians(90.0 - 38.7), 0.0, 0.0))
     path = tmp_path / "window.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return path
@@ -86,9 +77,7 @@ def test_the_sun_through_a_glass_pane_lights_the_room_as_in_cycles(ext, tmp_path
     code, _, stderr = run_cli("reference", blend, "-o", reference, "--samples", 1024, "--cache-dir",
                               tmp_path / "cache")
     assert code == 0, stderr
-    code, stdout, stderr = run_cli("compare", ours, reference, "--passes", "Diffuse Indirect,Diffuse Direct")
-    assert code == 0, stderr
-    found = json.loads(stdout)
-    print(f"window: Diffuse Indirect ratio {found['Diffuse Indirect']['mean_ratio']:.3f} rMAE "
-          f"{found['Diffuse Indirect']['rmae']:.3f}; Diffuse Direct ratio {found['Diffuse Direct']['mean_ratio']}")
-    assert abs(found["Diffuse Indirect"]["mean_ratio"] - 1.0) <= 0.10
+    found = pass_errors(ours, reference, "Diffuse Indirect")
+    print(f"window: Diffuse Indirect ratio {found['mean_ratio']:.3f} rMAE {found['rmae']:.3f} (Cycles' caustic "
+          f"through the pane is noise at 1024 spp; the mean is the measure)")
+    assert abs(found["mean_ratio"] - 1.0) <= 0.10
