@@ -64,7 +64,6 @@ def fence_blend(tmp_path):
     return path
 
 
-
 def test_a_cut_out_fence_casts_the_shadow_cycles_renders(ext, tmp_path):
     blend = fence_blend(tmp_path)
     ours, cycles, reference = tmp_path / "ours.exr", tmp_path / "cycles64.exr", tmp_path / "reference.exr"

@@ -21,7 +21,6 @@ def test_committed_reference_is_fresh(ext, name):
         f"example_blends/{name}.blend -o tests/references/{name}.exr --samples {REFERENCE_SAMPLES} --overwrite`")
 
 
-
 @pytest.mark.parametrize("name", EXAMPLE_SCENES)
 def test_diffuse_direct_matches_cycles(ext, name, tmp_path):
     reference = REFERENCES / f"{name}.exr"

@@ -54,7 +54,6 @@ def hdri_blend(tmp_path):
     return path
 
 
-
 def test_an_hdri_lights_and_shadows_as_in_cycles(ext, tmp_path):
     blend = hdri_blend(tmp_path)
     ours, cycles, reference = tmp_path / "ours.exr", tmp_path / "cycles64.exr", tmp_path / "reference.exr"
