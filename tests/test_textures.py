@@ -127,3 +127,15 @@ def test_broken_maps_leave_the_input_its_value():
     assert np.isfinite(scene.textures[0]).all() and (scene.textures[0] >= 0).all()
     with pytest.raises(ValueError, match="no input 'sheen'"):
         Materials.make([{"name": "x", "maps": {"sheen": TextureMap(0)}}])
+
+
+def test_an_emission_map_lights_the_scene_with_its_mean_over_each_triangle():
+    from vpl_addon.lights.emissive import EmissiveTriangles
+    half = np.array([[[0.0, 0.0, 0.0], [4.0, 4.0, 4.0]]], np.float32)  # u < 0.5 dark, u > 0.5 glows
+    rows = [{"name": "glow", "emission": (9.0, 9.0, 9.0), "maps": {"emission": TextureMap(0, closest=True)}}]
+    light = EmissiveTriangles.from_scene(Scene.build(QUAD, Materials.make(rows), [], CAM, uvs=QUAD_UV,
+                                                     material=[1, 1], textures=[half]))
+    # below the diagonal three quarters of the triangle has u > 0.5, above it one quarter
+    assert np.allclose(light.radiance[:, 0], [4.0 * 0.75, 4.0 * 0.25], atol=0.5)
+    dark = Scene.build(QUAD, Materials.make(rows), [], CAM, uvs=QUAD_UV, material=[1, 1], textures=[half * 0.0])
+    assert EmissiveTriangles.from_scene(dark) is None  # a black texture is no light, whatever the colour's value

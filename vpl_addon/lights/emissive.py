@@ -1,12 +1,17 @@
 """Emissive meshes as one light: radiance = Emission Color x Strength, emitted from both sides of every
-triangle whose material emits."""
+triangle whose material emits. Where an image drives Emission Color, a triangle emits the image's mean over it
+(``MAP_POINTS`` stratified points), so a mesh with a mostly black emission texture lights the scene only where the
+texture glows."""
 from __future__ import annotations
 
 import numpy as np
 
 from ..core.color import LUMINANCE
 from ..core.sampling import cosine_hemisphere, dot, sample_cdf, triangle_barycentrics
+from ..materials.textures import lookup
 from .light import Light
+
+MAP_POINTS = 4  # per side of the grid of points over a triangle that average an emission texture (16 points)
 
 
 class EmissiveTriangles(Light):
@@ -28,7 +33,7 @@ class EmissiveTriangles(Light):
 
     @staticmethod
     def from_scene(scene) -> "EmissiveTriangles | None":
-        emission = scene.materials.emission[scene.material]
+        emission = _emission(scene)
         sel = emission.max(axis=1) > 0.0
         if not sel.any():
             return None
@@ -71,3 +76,21 @@ class EmissiveTriangles(Light):
         power = self.radiance[idx] * (2.0 * np.pi * self.areas[idx] / np.maximum(self.prob[idx], 1e-300))[:, None]
         origins = origins + side * (1e-7 * max(radius, 1e-30))
         return origins, dirs, power
+
+
+def _emission(scene) -> np.ndarray:
+    """(T,3) radiance of every triangle: its material's Emission, or the mean of its emission map over it."""
+    m = scene.materials
+    out = m.emission[scene.material].astype(np.float64)
+    ids = m.mapped("emission")[scene.material]
+    if not (ids >= 0).any():
+        return out
+    u, v = (np.mgrid[0:MAP_POINTS, 0:MAP_POINTS].reshape(2, -1) + 0.5) / MAP_POINTS
+    b1, b2 = triangle_barycentrics(u, v)
+    bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)  # (P,3) spread over the triangle
+    for t in np.unique(ids[ids >= 0]):
+        tris = np.nonzero(ids == t)[0]
+        uv = np.einsum("pj,tjc->tpc", bary, scene.uvs[tris].astype(np.float64)).reshape(-1, 2)
+        value = lookup(m.maps[t], scene.textures, uv, scalar=False).reshape(len(tris), len(bary), 3)
+        out[tris] = np.maximum(np.nan_to_num(value.mean(axis=1), nan=0.0, posinf=0.0), 0.0)
+    return out
