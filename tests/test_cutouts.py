@@ -125,3 +125,17 @@ def test_glass_passes_one_minus_fresnel_straight_through_and_its_light_is_report
     assert abs(len(on_pane) / k - 0.04) < 0.01
     pane = shade(scene, np.tile([0.0, 0.0, -1.0], (k, 1)), hits, on_pane)
     assert np.allclose(pane.albedo, 0.0) and np.allclose(pane.metallic, 1.0) and np.allclose(pane.specular, 1.0)
+
+
+def test_a_seed_gives_one_image_however_the_threads_run():
+    from dataclasses import replace
+
+    from vpl_addon.core import passes as P
+    from vpl_addon.render import RenderSettings, render
+    above = np.eye(4)
+    above[:3, 3] = (0.5, 0.5, 3.0)  # looking down -Z at the fence and the floor
+    scene = replace(fence_scene({"alpha": 0.5}), camera=Camera(above, 24, 24, view_window(24, 24, orthographic=False)))
+    images = [render(scene, RenderSettings(samples=4, light_samples=2, method="none", seed=seed, block_pixels=64,
+                                           passes=(P.COMBINED, P.DIFFUSE_DIRECT))).passes[P.DIFFUSE_DIRECT]
+              for seed in (0, 0, 1)]
+    assert np.array_equal(images[0], images[1]) and not np.array_equal(images[0], images[2])

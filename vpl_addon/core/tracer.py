@@ -62,7 +62,7 @@ class Tracer:
         self.extent = extent if extent > 0.0 else 1.0
         self._scene = None
         self.cutouts = cutouts  # materials.cutouts.Cutouts of these triangles, or None (no holes)
-        self._rng = np.random.default_rng(seed)
+        self._seed = int(seed)
         self._triangles, self._normals = tri, None
         if len(tri):
             from embreex import rtcore_scene
@@ -105,13 +105,14 @@ class Tracer:
             return hits, crossed
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         todo = np.nonzero(hits.hit)[0]
+        rng = self._stream(origins, dirs)
         for _ in range(CUTOUT_LAYERS):
             todo = todo[self.cutouts.prims[hits.prim[todo]]]
             if not len(todo):
                 break
             d, ng = dirs[todo], self._face_normals()[hits.prim[todo]]
             cos = np.einsum("ij,ij->i", ng, d)
-            on, glass = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], cos, self._rng)
+            on, glass = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], cos, rng)
             crossed[todo[glass]] = True
             todo, d, ng, cos = todo[on], d[on], ng[on], cos[on]
             if not len(todo):
@@ -125,6 +126,13 @@ class Tracer:
             hits.t[todo] = t + beyond.t  # inf for rays that now miss
             todo = todo[beyond.hit]
         return hits, crossed
+
+    def _stream(self, origins, dirs) -> np.random.Generator:
+        """Random numbers for the cut-out decisions of one batch, seeded by the tracer's seed and the batch's
+        contents: the same rays draw the same numbers whichever thread traces them first, so a seed gives one
+        image."""
+        key = np.array([np.sum(origins, dtype=np.float64), np.sum(dirs, dtype=np.float64)]).view(np.uint64)
+        return np.random.default_rng([self._seed, len(origins), *key.tolist()])
 
     def _face_normals(self) -> np.ndarray:
         if self._normals is None:
