@@ -9,8 +9,8 @@ near zero scaled to the scene's extent so tiny and huge scenes behave alike.
 
 Alpha cut-outs and thin glass (``materials.cutouts``, handed in as ``cutouts``): a hit on a triangle with holes
 or glass is kept with the probability of its opacity; a ray that goes on is traced again from just past the
-surface, at most ``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then stops the ray).
-Occlusion queries trace closest hits only for the rays embree's any-hit query found blocked.
+surface, at most ``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then
+stops the ray). Occlusion queries trace closest hits only for the rays embree's any-hit query found blocked.
 """
 from __future__ import annotations
 
