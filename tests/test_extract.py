@@ -107,19 +107,23 @@ def test_principled_textured_emissive_and_unsupported_materials(bpy):
     glass = bpy.data.materials.new("Glassy")
     out = glass.node_tree.nodes["Material Output"]
     glass.node_tree.links.new(glass.node_tree.nodes.new("ShaderNodeBsdfGlass").outputs[0], out.inputs["Surface"])
-    for i, mat in enumerate((plain, glow, tex, glass)):
+    toon = bpy.data.materials.new("Toony")
+    out = toon.node_tree.nodes["Material Output"]
+    toon.node_tree.links.new(toon.node_tree.nodes.new("ShaderNodeBsdfToon").outputs[0], out.inputs["Surface"])
+    for i, mat in enumerate((plain, glow, tex, glass, toon)):
         add_mesh(bpy, f"M{i}", [(0, 0, i), (1, 0, i), (0, 1, i)], [(0, 1, 2)], material=mat)
     scene, warnings = extracted(bpy)
     m = scene.materials
-    ids = {name: m.names.index(name) for name in ("Plain", "Glow", "Tex", "Glassy")}
+    ids = {name: m.names.index(name) for name in ("Plain", "Glow", "Tex", "Glassy", "Toony")}
     assert np.allclose(m.base_color[ids["Plain"]], [0.2, 0.4, 0.6]) and m.roughness[ids["Plain"]] == pytest.approx(0.3)
     assert np.allclose(m.diffuse_albedo[ids["Plain"]], np.array([0.2, 0.4, 0.6]) * 0.75)
     assert np.allclose(m.emission[ids["Glow"]], [4, 2, 0])
     tex_id = m.mapped("base_color")[ids["Tex"]]
     assert tex_id >= 0 and np.allclose(scene.textures[m.maps[tex_id].image], ((0.5 + 0.055) / 1.055) ** 2.4,
                                        atol=0.01)
-    assert np.allclose(m.base_color[ids["Glassy"]], 0.8)
-    assert [w for w in warnings if "'Glassy'" in w and "Glass" in w]
+    assert m.glass[ids["Glassy"]] and m.ior[ids["Glassy"]] == pytest.approx(1.5)  # the Glass BSDF: thin glass
+    assert np.allclose(m.base_color[ids["Toony"]], 0.8)  # an unsupported shader: grey diffuse, one warning
+    assert [w for w in warnings if "'Toony'" in w and "Toon" in w] and not [w for w in warnings if "Glassy" in w]
 
 
 def test_lights_in_blender_units(bpy):
