@@ -21,17 +21,17 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import cornell_measured, mitsuba
+from . import cornell_measured, gltf_scenes, mitsuba
 from .wavefront import read_obj
 
 FINGERPRINT_KEY = "vpl_gi_scene_fingerprint"
 C = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
 CAMERA_FLIP = np.diag([-1.0, 1.0, -1.0, 1.0])
-SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "shared_scenes.py")
+SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "gltf_scenes.py", "shared_scenes.py")
 
 # name -> (folder under ../shared/scenes, file inside it, parser). "mitsuba-diffuse": every BSDF made Lambertian
 # with its base colour (checkerboards by their mean colour), the variant on which VPL GI's diffuse-only methods and
-# Cycles solve the same light transport.
+# Cycles solve the same light transport. "gltf": imported by Blender's glTF importer and staged by ``gltf_scenes``.
 SCENES = {
     "cornell_measured": ("cornell_box_measured", cornell_measured.DATA, "cornell"),
     "cornell_bitterli": ("cornell_box_bitterli", "scene.xml", "mitsuba"),
@@ -39,6 +39,8 @@ SCENES = {
     "veach_ajar": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba"),
     "veach_ajar_diffuse": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba-diffuse"),
     "living_room": ("living_room_bitterli", "scene.xml", "mitsuba"),
+    "helmet_hdri": ("damaged_helmet_khronos", "DamagedHelmet.gltf", "gltf"),
+    "hotel_room": ("hotel_room_openshaw", "hotel_room.glb", "gltf"),
 }
 REFERENCE_IMAGES = {"cornell_bitterli": "TungstenRender.exr", "veach_bidir": "TungstenRender.exr"}
 
@@ -98,13 +100,13 @@ def stored_fingerprint(path: str) -> str | None:
 
 # --- building ------------------------------------------------------------------------------------------------------
 
-def _reset(data: mitsuba.MitsubaScene, samples: int):
+def _reset(width: int, height: int, samples: int, bounces: int):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.unit_settings.system = "METRIC"
     r = scene.render
     r.engine = "CYCLES"
-    r.resolution_x, r.resolution_y = data.camera.width, data.camera.height
+    r.resolution_x, r.resolution_y = width, height
     r.resolution_percentage = 100
     c = scene.cycles
     c.device = "CPU"
@@ -112,7 +114,6 @@ def _reset(data: mitsuba.MitsubaScene, samples: int):
     c.use_adaptive_sampling = False
     c.use_denoising = False
     c.seed = 0
-    bounces = min(data.max_bounces or 8, 16)
     c.max_bounces = c.diffuse_bounces = c.glossy_bounces = c.transmission_bounces = bounces
     c.transparent_max_bounces = 8
     c.volume_bounces = 0
@@ -425,7 +426,7 @@ def build(data: mitsuba.MitsubaScene, samples: int = 64):
     if data.camera is None:
         raise mitsuba.MitsubaError(f"{data.path}: no camera to convert")
     warnings = list(data.warnings)
-    scene = _reset(data, samples)
+    scene = _reset(data.camera.width, data.camera.height, samples, min(data.max_bounces or 8, 16))
     materials: dict = {}
     for shape in data.shapes:
         _add_shape(scene, shape, materials, warnings)
@@ -442,8 +443,11 @@ def convert(source_dir: str, name: str, out_path: str, width: int = mitsuba.DEFA
     stamp = fingerprint(source_dir, name, width)
     if not force and stored_fingerprint(out_path) == stamp:
         return False, []
-    data = load(source_dir, name, width)
-    scene, warnings = build(data)
+    if SCENES[name][2] == "gltf":
+        scene = _reset(width, round(width * gltf_scenes.ASPECT[name]), 64, 8)
+        warnings = gltf_scenes.build(scene, source_dir, name)
+    else:
+        scene, warnings = build(load(source_dir, name, width))
     scene[FINGERPRINT_KEY] = stamp
     scene["vpl_gi_source"] = os.path.join(SCENES[name][0], SCENES[name][1])
     scene["vpl_gi_import_warnings"] = warnings

@@ -278,7 +278,7 @@ def cmd_scenes(args) -> int:
         t0 = time.perf_counter()
         try:
             written, warnings = shared_scenes.convert(args.source, name, out, width=args.width, force=args.force)
-        except MitsubaError as err:
+        except (MitsubaError, OSError) as err:
             raise UserError(str(err)) from None
         if not written:
             print(f"up to date: {out}")
@@ -384,7 +384,7 @@ def parser() -> argparse.ArgumentParser:
                    help="where rendered references are kept by hash")
     b.add_argument("--overwrite", action="store_true", help="replace the output files if they exist")
     b.set_defaults(run=cmd_bench)
-    sc = sub.add_parser("scenes", help="convert the public scenes (Mitsuba XML, Cornell measured data) to .blend")
+    sc = sub.add_parser("scenes", help="convert the public scenes (Mitsuba XML, Cornell measured data, glTF) to .blend")
     sc.add_argument("names", nargs="*", help="scenes to convert (default: all)")
     sc.add_argument("--source", default=os.path.join("..", "shared", "scenes"),
                     help="folder of the public scenes (default ../shared/scenes)")
