@@ -52,7 +52,7 @@ examples: $(STAMP)
 	$(BIN)/python example_blends/make_pbr.py
 	$(BIN)/python example_blends/make_sequences.py
 
-# The public scenes of ../shared/scenes (Mitsuba XML, Cornell measured data) as .blend files in scenes/ (git-ignored;
+# The public scenes of ../shared/scenes (Mitsuba XML, Cornell measured data, glTF) as .blend files in scenes/ (git-ignored;
 # nothing from ../shared is committed). A file is rewritten only when the converter or its source changed.
 SCENES_SOURCE ?= ../shared/scenes
 scenes: $(STAMP)

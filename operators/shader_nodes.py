@@ -8,8 +8,12 @@ An input's link is followed back through reroutes to an Image Texture, across wh
   factors);
 - Normal Map (tangent space) into Normal: the image is a tangent-space normal map of that strength and UV map.
 The image's Vector comes from the default UV map, a UV Map node or Texture Coordinate's UV, through a Mapping node
-(its location, rotation and scale as an affine UV transform). Anything else keeps the input's value, with one warning
-naming the material, the input and the node.
+(its location, rotation and scale as an affine UV transform). Links are followed through reroutes and into and out of
+node groups. Anything else keeps the input's value, with one warning naming the material, the input and the node.
+
+Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass (thin glass) and Emission shaders; a Mix Shader
+with a Transparent BSDF is an alpha cut-out of the other shader, an Add Shader of an Emission shader makes the other
+glow; other mixes and sums render their heavier (first) shader, with a warning.
 """
 from __future__ import annotations
 
@@ -66,17 +70,52 @@ def surface_node(material):
     return None if source is None else source.node
 
 
-def _source(socket):
-    """The output socket feeding ``socket``, through reroutes; None when unlinked (or muted)."""
+# group tree pointer -> the Group node last entered through it: a Group Input inside leads back out through the
+# node the chain came in by (chains are followed one at a time, so the last one entered is the one being followed)
+_entered: dict[int, object] = {}
+
+
+def _walk(socket):
+    """(the output socket feeding ``socket`` or None, the last input socket on the way): links are followed through
+    reroutes and into and out of node groups (a Group node's output continues at its tree's active Group Output, a
+    Group Input at the Group node's input). Unlinked (or muted), the last input socket holds the value."""
     while socket.is_linked:
         link = socket.links[0]
         if getattr(link, "is_muted", False) or not link.is_valid:
-            return None
-        if link.from_node.type == "REROUTE":
-            socket = link.from_node.inputs[0]
-            continue
-        return link.from_socket
-    return None
+            return None, socket
+        node = link.from_node
+        if node.type == "REROUTE":
+            socket = node.inputs[0]
+        elif node.type == "GROUP" and node.node_tree is not None:
+            outputs = [n for n in node.node_tree.nodes if n.type == "GROUP_OUTPUT"]
+            active = [n for n in outputs if n.is_active_output] or outputs
+            inner = [i for i in active[0].inputs if i.identifier == link.from_socket.identifier] if active else []
+            if not inner:
+                return None, socket
+            _entered[node.node_tree.as_pointer()] = node
+            socket = inner[0]
+        elif node.type == "GROUP_INPUT" and node.id_data.as_pointer() in _entered:
+            group = _entered[node.id_data.as_pointer()]
+            outer = [i for i in group.inputs if i.identifier == link.from_socket.identifier]
+            if not outer:
+                return None, socket
+            socket = outer[0]
+        else:
+            return link.from_socket, socket
+    return None, socket
+
+
+def _source(socket):
+    """The output socket feeding ``socket`` (``_walk``), None when none does."""
+    return _walk(socket)[0]
+
+
+def _value(socket):
+    """The value an input stands for when nothing it reads is an output: its own, or that of the group input it is
+    wired to (a tuple for colours and vectors)."""
+    source, end = _walk(socket)
+    value = (socket if source is not None else end).default_value
+    return tuple(value) if hasattr(value, "__len__") else float(value)
 
 
 def _same(a, b) -> bool:
@@ -85,11 +124,8 @@ def _same(a, b) -> bool:
 
 
 def _constant(socket):
-    """The value of an unlinked socket (a tuple for colours and vectors), None when it is linked."""
-    if _source(socket) is not None:
-        return None
-    value = socket.default_value
-    return tuple(value) if hasattr(value, "__len__") else float(value)
+    """The value of an input nothing feeds (``_value``), None when an output does."""
+    return None if _source(socket) is not None else _value(socket)
 
 
 def _threshold(node) -> tuple[float, object] | None:
@@ -268,18 +304,22 @@ class MaterialTable:
             row["roughness"] = material.roughness
             row["metallic"] = material.metallic
             return row
+        return self._shader(material, surface, row)
+
+    def _shader(self, material, surface, row: dict) -> dict:
+        """``row`` filled from the shader node ``surface`` (following Mix and Add Shaders)."""
         if surface.type == "BSDF_PRINCIPLED":
             return self._principled(material, surface, row)
         if surface.type == "EMISSION":
-            strength = surface.inputs["Strength"].default_value
+            strength = _value(surface.inputs["Strength"])
             row["base_color"] = (0.0, 0.0, 0.0)
-            row["emission"] = tuple(c * strength for c in surface.inputs["Color"].default_value[:3])
+            row["emission"] = tuple(c * strength for c in _value(surface.inputs["Color"])[:3])
             self._linked(material, row, surface, {"Color": "emission"}, scale=strength)
             return row
         if surface.type == "BSDF_GLASS":
-            row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
-            row["roughness"] = surface.inputs["Roughness"].default_value
-            row["ior"] = surface.inputs["IOR"].default_value
+            row["base_color"] = _value(surface.inputs["Color"])[:3]
+            row["roughness"] = _value(surface.inputs["Roughness"])
+            row["ior"] = _value(surface.inputs["IOR"])
             row["transmission"], row["specular"] = 1.0, 0.5
             for name in ("Color", "Roughness", "IOR"):
                 if _source(surface.inputs[name]) is not None:
@@ -287,40 +327,129 @@ class MaterialTable:
                                          f"supported; using its value")
             return row
         if surface.type == "BSDF_DIFFUSE":
-            row["base_color"] = tuple(surface.inputs["Color"].default_value)[:3]
+            row["base_color"] = _value(surface.inputs["Color"])[:3]
             row["roughness"] = 1.0
             self._linked(material, row, surface, {"Color": "base_color"})
+            self._normal(material, row, surface)
             return row
+        if surface.type == "BSDF_GLOSSY":
+            return self._glossy(material, surface, row)
+        if surface.type == "MIX_SHADER":
+            return self._mix(material, surface, row)
+        if surface.type == "ADD_SHADER":
+            return self._add(material, surface, row)
         self.warnings.append(f"material {material.name!r}: surface shader {surface.bl_label!r} is not supported; "
                              f"rendered as grey diffuse")
         return {"name": material.name}
 
+    def _glossy(self, material, node, row: dict) -> dict:
+        """The Glossy BSDF as the metallic lobe (GGX, its roughness). Cycles' Glossy BSDF has no Fresnel: its
+        reflectance is Color at every angle. The F82-tint Fresnel with F0 = Color and the tint that makes
+        F(1/7) = Color matches that from normal incidence to 82 degrees, rising to white only at grazing (a
+        textured Color keeps plain Schlick: the tint is one value per material)."""
+        colour = np.clip(np.array(_value(node.inputs["Color"])[:3]), 0.0, 1.0)
+        schlick_edge = colour + (1.0 - colour) * (6.0 / 7.0) ** 5
+        tint = np.ones(3) if _source(node.inputs["Color"]) is not None else np.clip(colour / schlick_edge, 0.0, 1.0)
+        row.update(base_color=tuple(colour), roughness=_value(node.inputs["Roughness"]), metallic=1.0,
+                   specular_tint=tuple(tint))
+        if _constant(node.inputs["Anisotropy"]) != 0.0:
+            self.warnings.append(f"material {material.name!r}: the anisotropy of {node.bl_label!r} ({node.name}) "
+                                 f"is not supported; rendered isotropic")
+        self._linked(material, row, node, {"Color": "base_color", "Roughness": "roughness"})
+        self._normal(material, row, node)
+        return row
+
+    def _mix(self, material, node, row: dict) -> dict:
+        """A Mix Shader with a Transparent BSDF on one side is the other shader with an alpha cut-out (the factor,
+        or one minus it, a constant or a map; how older glTF imports and leaf assets cut out); between two other
+        shaders, the one with the larger constant weight stands for both, with a warning."""
+        fac, first, second = node.inputs[0], _source(node.inputs[1]), _source(node.inputs[2])
+        shaders = [None if s is None else s.node for s in (first, second)]
+        transparent = [s is not None and s.type == "BSDF_TRANSPARENT" for s in shaders]
+        if transparent[0] != transparent[1]:
+            kept = shaders[1] if transparent[0] else shaders[0]
+            tint = shaders[0] if transparent[0] else shaders[1]
+            if (_constant(tint.inputs["Color"]) or (0.0,))[:3] != (1.0, 1.0, 1.0):
+                self.warnings.append(f"material {material.name!r}: the Transparent BSDF's colour in {node.name!r} "
+                                     f"is read as white")
+            row = {"name": row["name"], "base_color": (0.0, 0.0, 0.0)} if kept is None \
+                else self._shader(material, kept, row)
+            value = _constant(fac)
+            if value is not None:  # fac is the second shader's weight
+                opacity = value if transparent[0] else 1.0 - value
+                row["alpha"] = row.get("alpha", 1.0) * float(np.clip(opacity, 0.0, 1.0))
+                return row
+            if not transparent[0]:
+                self.warnings.append(f"material {material.name!r}: Mix Shader {node.name!r} with the Transparent "
+                                     f"BSDF second and a linked factor (opacity 1 - factor) is not supported; opaque")
+                return row
+            tmap = self._map(material, "Alpha", fac)
+            if tmap is not None:
+                row.setdefault("maps", {})["alpha"] = tmap
+            return row
+        value = _constant(fac)
+        weight = 0.5 if value is None else float(np.clip(value, 0.0, 1.0))
+        kept = shaders[1] if weight > 0.5 else shaders[0]
+        if kept is None:
+            self.warnings.append(f"material {material.name!r}: Mix Shader {node.name!r} has no shader on its "
+                                 f"heavier side; rendered as grey diffuse")
+            return {"name": row["name"]}
+        if 0.0 < weight < 1.0:
+            self.warnings.append(f"material {material.name!r}: Mix Shader {node.name!r} is rendered as its "
+                                 f"{'second' if weight > 0.5 else 'first'} shader {kept.bl_label!r} alone "
+                                 f"(factor {'linked' if value is None else f'{value:g}'})")
+        return self._shader(material, kept, row)
+
+    def _add(self, material, node, row: dict) -> dict:
+        """An Add Shader of an Emission shader and a surface is that surface glowing (its emission added); two
+        other shaders: the first stands for both, with a warning."""
+        shaders = [None if s is None else s.node for s in (_source(node.inputs[0]), _source(node.inputs[1]))]
+        glowing = [s is not None and s.type == "EMISSION" for s in shaders]
+        if glowing[0] != glowing[1]:
+            emitter, surface = (shaders[0], shaders[1]) if glowing[0] else (shaders[1], shaders[0])
+            row = {"name": row["name"], "base_color": (0.0, 0.0, 0.0)} if surface is None \
+                else self._shader(material, surface, row)
+            glow = self._shader(material, emitter, {"name": row["name"]})
+            if "emission" in row.get("maps", {}) and "emission" in glow.get("maps", {}):
+                self.warnings.append(f"material {material.name!r}: two emission maps meet in {node.name!r}; the "
+                                     f"Emission shader's is used")
+            row["emission"] = tuple(a + b for a, b in zip(row.get("emission", (0.0, 0.0, 0.0)), glow["emission"]))
+            if "emission" in glow.get("maps", {}):
+                row.setdefault("maps", {})["emission"] = glow["maps"]["emission"]
+            return row
+        self.warnings.append(f"material {material.name!r}: Add Shader {node.name!r} is rendered as its first shader")
+        return self._shader(material, shaders[0], row) if shaders[0] is not None else {"name": row["name"]}
+
     def _principled(self, material, node, row: dict) -> dict:
         inputs = node.inputs
-        row["base_color"] = tuple(inputs["Base Color"].default_value)[:3]
-        row["roughness"] = inputs["Roughness"].default_value
-        row["metallic"] = inputs["Metallic"].default_value
-        row["specular_tint"] = tuple(inputs["Specular Tint"].default_value)[:3]
-        row["ior"] = inputs["IOR"].default_value
-        row["specular"] = inputs["Specular IOR Level"].default_value
-        row["alpha"] = inputs["Alpha"].default_value
-        row["transmission"] = inputs["Transmission Weight"].default_value
+        row["base_color"] = _value(inputs["Base Color"])[:3]
+        row["roughness"] = _value(inputs["Roughness"])
+        row["metallic"] = _value(inputs["Metallic"])
+        row["specular_tint"] = _value(inputs["Specular Tint"])[:3]
+        row["ior"] = _value(inputs["IOR"])
+        row["specular"] = _value(inputs["Specular IOR Level"])
+        row["alpha"] = _value(inputs["Alpha"])
+        row["transmission"] = _value(inputs["Transmission Weight"])
         if 0.0 < row["transmission"] < 1.0:
             self.warnings.append(f"material {material.name!r}: Transmission Weight {row['transmission']:g} is read "
                                  f"as {'glass' if row['transmission'] >= 0.5 else 'opaque'}")
-        strength = inputs["Emission Strength"].default_value
-        row["emission"] = tuple(c * strength for c in inputs["Emission Color"].default_value[:3])
+        strength = _value(inputs["Emission Strength"])
+        row["emission"] = tuple(c * strength for c in _value(inputs["Emission Color"])[:3])
         self._linked(material, row, node, {"Base Color": "base_color", "Roughness": "roughness",
                                            "Metallic": "metallic", "Emission Color": "emission", "Alpha": "alpha"},
                      scale=strength)
-        if _source(inputs["Normal"]) is not None:
-            tmap = self._map(material, "Normal", inputs["Normal"], normal=True)
-            if tmap is not None:
-                row.setdefault("maps", {})["normal"] = tmap
+        self._normal(material, row, node)
         for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength", "Transmission Weight"):
             if _source(inputs[name]) is not None:
                 self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; using its value")
         return row
+
+    def _normal(self, material, row: dict, node):
+        """A normal map on ``node``'s Normal input."""
+        if _source(node.inputs["Normal"]) is not None:
+            tmap = self._map(material, "Normal", node.inputs["Normal"], normal=True)
+            if tmap is not None:
+                row.setdefault("maps", {})["normal"] = tmap
 
     def _linked(self, material, row: dict, node, inputs: dict[str, str], scale: float = 1.0):
         """Texture maps for the linked ``inputs`` of ``node`` (socket name -> engine input)."""

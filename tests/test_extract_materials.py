@@ -33,11 +33,9 @@ def test_the_gltf_importers_material_extracts_without_a_warning(ext):
     assert np.abs((t * n).sum(axis=1)).max() < 1e-3 and np.allclose(np.linalg.norm(t, axis=1), 1, atol=1e-3)
 
 
-def _image(bpy, name, rgba, non_color=False):
+def _image(bpy, name, rgba):
     image = bpy.data.images.new(name, 2, 1, float_buffer=True)
     image.pixels.foreach_set(np.array(rgba, np.float32).ravel())
-    if non_color:
-        image.colorspace_settings.name = "Non-Color"
     return image
 
 
@@ -158,3 +156,117 @@ def test_alpha_clip_and_blend_are_read_and_other_alpha_chains_warn(bpy, pattern)
     tmap = m.maps[m.mapped("alpha")[i]]
     assert tmap.channel == 3 and tmap.factor[0] == pytest.approx(0.8)
     assert tmap.cutoff == (-1.0 if pattern == "blend" else pytest.approx(0.4))
+
+
+def test_node_groups_are_followed_in_and_out(bpy):
+    """An asset-library pattern: the Principled BSDF inside a group, its Base Color from an image outside wired to
+    a group input, its Roughness from an image's green channel inside, its Metallic the group node's unlinked input
+    value; the group reached through a reroute."""
+    group = bpy.data.node_groups.new("Surface", "ShaderNodeTree")
+    group.interface.new_socket("Colour", in_out="INPUT", socket_type="NodeSocketColor")
+    group.interface.new_socket("Metal", in_out="INPUT", socket_type="NodeSocketFloat")
+    group.interface.new_socket("Shader", in_out="OUTPUT", socket_type="NodeSocketShader")
+    inside, outside = group.nodes.new("NodeGroupInput"), group.nodes.new("NodeGroupOutput")
+    bsdf = group.nodes.new("ShaderNodeBsdfPrincipled")
+    rough = group.nodes.new("ShaderNodeTexImage")
+    rough.image = _image(bpy, "rough", [[0.1, 0.3, 0.9, 1], [0.1, 0.7, 0.9, 1]])
+    split = group.nodes.new("ShaderNodeSeparateColor")
+    group.links.new(rough.outputs["Color"], split.inputs[0])
+    group.links.new(split.outputs["Green"], bsdf.inputs["Roughness"])
+    group.links.new(inside.outputs["Colour"], bsdf.inputs["Base Color"])
+    group.links.new(inside.outputs["Metal"], bsdf.inputs["Metallic"])
+    group.links.new(bsdf.outputs["BSDF"], outside.inputs["Shader"])
+    mat = bpy.data.materials.new("Grouped")
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    node = nodes.new("ShaderNodeGroup")
+    node.node_tree = group
+    node.inputs["Metal"].default_value = 0.7
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image = _image(bpy, "colours", [[0.2, 0.4, 0.6, 1], [1, 1, 1, 1]])
+    links.new(tex.outputs["Color"], node.inputs["Colour"])
+    reroute = nodes.new("NodeReroute")
+    links.new(node.outputs["Shader"], reroute.inputs[0])
+    links.new(reroute.outputs[0], nodes["Material Output"].inputs["Surface"])
+    obj = add_mesh(bpy, "Tri", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2)], material=mat)
+    obj.data.uv_layers.new(name="UVMap")
+    scene, warnings = extracted(bpy)
+    assert warnings == []
+    m = scene.materials
+    i = m.names.index("Grouped")
+    assert m.metallic[i] == pytest.approx(0.7)
+    base, roughness = m.maps[m.mapped("base_color")[i]], m.maps[m.mapped("roughness")[i]]
+    assert scene.textures[base.image][0, 0, :3] == pytest.approx((0.2, 0.4, 0.6))
+    assert roughness.channel == 1 and scene.textures[roughness.image][0, 1, 1] == pytest.approx(0.7)
+
+
+def _shader_material(bpy, name, build):
+    """A material whose Surface is what ``build(nodes, links)`` returns (an output socket)."""
+    mat = bpy.data.materials.new(name)
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    links.new(build(nodes, links), nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
+def test_glossy_mix_and_add_shaders(bpy):
+    def glossy(nodes, links):
+        node = nodes.new("ShaderNodeBsdfGlossy")
+        node.inputs["Color"].default_value = (0.9, 0.5, 0.1, 1)
+        node.inputs["Roughness"].default_value = 0.3
+        return node.outputs[0]
+
+    def leaf(nodes, links):  # the older glTF importer's and many leaf assets' cut-out: Transparent first
+        mix = nodes.new("ShaderNodeMixShader")
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = _image(bpy, "leafalpha", [[1, 1, 1, 0], [1, 1, 1, 1]])
+        links.new(tex.outputs["Alpha"], mix.inputs[0])
+        links.new(nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[1])
+        links.new(nodes.new("ShaderNodeBsdfDiffuse").outputs[0], mix.inputs[2])
+        return mix.outputs[0]
+
+    def veil(nodes, links):  # a constant 30 % opacity the other way round
+        mix = nodes.new("ShaderNodeMixShader")
+        mix.inputs[0].default_value = 0.7
+        links.new(nodes.new("ShaderNodeBsdfPrincipled").outputs[0], mix.inputs[1])
+        links.new(nodes.new("ShaderNodeBsdfTransparent").outputs[0], mix.inputs[2])
+        return mix.outputs[0]
+
+    def glow(nodes, links):
+        add = nodes.new("ShaderNodeAddShader")
+        emission = nodes.new("ShaderNodeEmission")
+        emission.inputs["Color"].default_value = (1, 0.5, 0.25, 1)
+        emission.inputs["Strength"].default_value = 4.0
+        diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+        diffuse.inputs["Color"].default_value = (0.3, 0.3, 0.3, 1)
+        links.new(diffuse.outputs[0], add.inputs[0])
+        links.new(emission.outputs[0], add.inputs[1])
+        return add.outputs[0]
+
+    def blend(nodes, links):  # two BSDFs: the heavier stands, with a warning
+        mix = nodes.new("ShaderNodeMixShader")
+        mix.inputs[0].default_value = 0.8
+        links.new(nodes.new("ShaderNodeBsdfDiffuse").outputs[0], mix.inputs[1])
+        links.new(glossy(nodes, links).node.outputs[0], mix.inputs[2])
+        return mix.outputs[0]
+
+    for k, (name, build) in enumerate((("Glossy", glossy), ("Leaf", leaf), ("Veil", veil), ("Glow", glow),
+                                       ("Blend", blend))):
+        obj = add_mesh(bpy, name, [(0, 0, k), (1, 0, k), (0, 1, k)], [(0, 1, 2)],
+                       material=_shader_material(bpy, name, build))
+        obj.data.uv_layers.new(name="UVMap")
+    scene, warnings = extracted(bpy)
+    m = scene.materials
+    ids = {name: m.names.index(name) for name in ("Glossy", "Leaf", "Veil", "Glow", "Blend")}
+    for name in ("Glossy", "Blend"):
+        i = ids[name]
+        assert m.metallic[i] == 1.0 and m.roughness[i] == pytest.approx(0.3)
+        assert m.base_color[i] == pytest.approx((0.9, 0.5, 0.1))
+        # the tint makes the F82 Fresnel at cos 1/7 equal the colour: Cycles' Glossy BSDF has no Fresnel
+        c = np.array((0.9, 0.5, 0.1))
+        assert m.specular_tint[i] * (c + (1 - c) * (6 / 7) ** 5) == pytest.approx(c)
+    alpha = m.maps[m.mapped("alpha")[ids["Leaf"]]]
+    assert alpha.channel == 3 and m.metallic[ids["Leaf"]] == 0.0
+    assert m.alpha[ids["Veil"]] == pytest.approx(0.3) and m.mapped("alpha")[ids["Veil"]] < 0
+    assert m.emission[ids["Glow"]] == pytest.approx((4.0, 2.0, 1.0)) and m.base_color[ids["Glow"]] == pytest.approx(0.3)
+    assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Blend'", "Mix Shader", "Glossy"))
