@@ -23,6 +23,7 @@ from dataclasses import replace
 import numpy as np
 
 from ..vpl_addon.core.scene import Materials, TextureMap
+from ..vpl_addon.materials.microfacet import constant_reflectance_tint
 
 CHANNELS = {"Red": 0, "R": 0, "Green": 1, "G": 1, "Blue": 2, "B": 2}
 
@@ -343,13 +344,11 @@ class MaterialTable:
         return {"name": material.name}
 
     def _glossy(self, material, node, row: dict) -> dict:
-        """The Glossy BSDF as the metallic lobe (GGX, its roughness). Cycles' Glossy BSDF has no Fresnel: its
-        reflectance is Color at every angle. The F82-tint Fresnel with F0 = Color and the tint that makes
-        F(1/7) = Color matches that from normal incidence to 82 degrees, rising to white only at grazing (a
-        textured Color keeps plain Schlick: the tint is one value per material)."""
+        """The Glossy BSDF as the metallic lobe (GGX, its roughness), with the F82 tint that gives its Fresnel the
+        mean reflectance Color (``microfacet.constant_reflectance_tint``): Cycles' Glossy BSDF has no Fresnel. A
+        textured Color keeps the tint of its unlinked value (the tint is one value per material)."""
         colour = np.clip(np.array(_value(node.inputs["Color"])[:3]), 0.0, 1.0)
-        schlick_edge = colour + (1.0 - colour) * (6.0 / 7.0) ** 5
-        tint = np.ones(3) if _source(node.inputs["Color"]) is not None else np.clip(colour / schlick_edge, 0.0, 1.0)
+        tint = constant_reflectance_tint(colour)
         row.update(base_color=tuple(colour), roughness=_value(node.inputs["Roughness"]), metallic=1.0,
                    specular_tint=tuple(tint))
         if _constant(node.inputs["Anisotropy"]) != 0.0:

@@ -162,3 +162,15 @@ def test_diffuse_scenes_compute_nothing_glossy():
     result = render(scene, RenderSettings(samples=2, light_samples=1, method="none",
                                           passes=("Combined", "Glossy Direct", "Glossy Color")))
     assert result.passes["Glossy Direct"].max() == 0.0 and result.passes["Glossy Color"].max() == 0.0
+
+
+@pytest.mark.parametrize("colour", [(0.9, 0.5, 0.1), (0.02, 0.3, 1.0), (0.0, 0.0, 0.0)])
+def test_glossy_bsdf_tint_gives_the_colour_as_mean_reflectance(colour):
+    """Cycles' Glossy BSDF has no Fresnel; as a metallic lobe its F82 tint makes the Fresnel's cosine-weighted mean
+    the colour (and it is the colour at normal incidence, F0)."""
+    c = np.array(colour)
+    tint = M.constant_reflectance_tint(c)
+    mu = (np.arange(4096) + 0.5) / 4096
+    f = M.fresnel(np.broadcast_to(c, (4096, 3)), M.f82_b(c, tint)[None], mu)
+    assert np.allclose(2 * (mu[:, None] * f).mean(axis=0), np.maximum(c, 0.0044), atol=1e-4)  # black: a trace
+    assert np.allclose(f[-1], c, atol=1e-3) and ((tint >= 0) & (tint <= 1)).all()

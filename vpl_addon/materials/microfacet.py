@@ -70,6 +70,24 @@ def fresnel(f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> np.ndarray:
     return np.clip(schlick(f0, mu) - b * (mu * (1.0 - mu) ** 6)[:, None], 0.0, 1.0)
 
 
+def constant_reflectance_tint(colour) -> np.ndarray:
+    """(3,) the F82 tint with F0 = ``colour`` whose Fresnel has the cosine-weighted hemispherical mean ``colour``:
+    Cycles' Glossy BSDF, which has no Fresnel (its reflectance is its colour at every angle), as a metallic lobe. The
+    curve is the colour at normal incidence, within 4 % of it out to 60 degrees for colours of 0.3 and up, dips
+    near 71 degrees (to 0.90 of a colour of 0.3, 0.60 of 0.1) and turns white at grazing; black keeps a mean of 0.0044
+    (tint 0). Bisection, 40 steps on 256 angles."""
+    colour = np.clip(np.asarray(colour, np.float64).reshape(3), 0.0, 1.0)
+    mu = (np.arange(256) + 0.5) / 256
+    f0 = np.broadcast_to(colour, (256, 3))
+    lo, hi = np.zeros(3), np.ones(3)
+    for _ in range(40):
+        tint = (lo + hi) / 2
+        mean = 2.0 * (mu[:, None] * fresnel(f0, f82_b(colour, tint)[None], mu)).mean(axis=0)
+        too_bright = mean > colour
+        hi, lo = np.where(too_bright, tint, hi), np.where(too_bright, lo, tint)
+    return (lo + hi) / 2
+
+
 def f0_from_ior(eta: np.ndarray) -> np.ndarray:
     """Normal-incidence reflectance ((eta - 1) / (eta + 1))^2 of a dielectric of relative IOR ``eta``."""
     return ((eta - 1.0) / (eta + 1.0)) ** 2
