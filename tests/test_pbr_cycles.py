@@ -3,7 +3,7 @@ block wear the glTF importer's material: an sRGB Base Color image, roughness and
 through Separate Color, a tangent-space normal map, the dielectric specular layer on) rendered by the engine and
 compared with the committed 4096-spp Cycles reference at 50 %: Diffuse Direct, Glossy Direct and Diffuse Indirect
 within 3 % in mean on the textured pixels (with Cycles' bump shadowing term on the normal-mapped diffuse lobe), rMAE of
-Diffuse Direct and Glossy Direct at Cycles' own at 1024 spp."""
+Diffuse Direct and Glossy Direct at Cycles' own at 1024 spp, of Diffuse Indirect within 1.35x of it (see the test)."""
 import pytest
 
 from conftest import EXAMPLES, REFERENCES
@@ -44,7 +44,9 @@ def test_textured_pbr_passes_match_cycles(pbr_box):
     from vpl_gi.vpl_addon.render import RenderSettings, render
 
     scene, ref, full = pbr_box
-    ours = render(scene, RenderSettings(samples=256, light_samples=4, passes=P.ALL)).passes  # 22 s, Cycles 1024: 27 s
+    settings = RenderSettings(samples=256, light_samples=4, passes=P.ALL)
+    settings.placement.vbnl.sampling.samples = 64  # vbnl's sample pairs per pixel, its indirect-light knob
+    ours = render(scene, settings).passes  # 31 s; Cycles at 1024 spp: 27 s
     pbr = full & (ref[P.GLOSSY_COLOR].max(axis=2) > 0.0)  # the walls have no specular layer
     # Cycles' diffuse light passes are divided by Diffuse Color: on the metal band and its edges (colour near 0)
     # they are noise over nothing, so the diffuse passes are compared where there is a diffuse colour
@@ -62,7 +64,9 @@ def test_textured_pbr_passes_match_cycles(pbr_box):
     # 2026-11-25: 0.020 and 0.050 against 0.0173 and 0.0503)
     for name in (P.DIFFUSE_DIRECT, P.GLOSSY_DIRECT):
         assert found[name]["rmae"] <= 1.25 * CYCLES_1024[name], name
-    # OPEN: Diffuse Indirect stays at 1.5x Cycles' 1024-spp rMAE (0.115 against 0.078): the error sits on the edges of
-    # the metal band, the block and the floor in this 128-pixel image and does not fall with 4x the pixel samples
-    # (0.104) or 4x the lights (0.117), so it is structure, not noise. This bar holds today's figure.
-    assert found[P.DIFFUSE_INDIRECT]["rmae"] <= 1.6 * CYCLES_1024[P.DIFFUSE_INDIRECT]
+    # Diffuse Indirect: 0.100 against Cycles' 0.078 at about equal time (1.28x). It falls with vbnl's sample pairs, not
+    # with camera samples, lights or photons (16 pairs: 0.115; 64: 0.100; 256: 0.095, 2.4x Cycles' time; without the
+    # filter 0.295, 0.159, 0.0925). The 4096-spp reference carries about 0.035 of noise itself and the unfiltered
+    # 256-pair image about 0.04 of edge bias beyond its noise: Cycles' own 1024-spp level is out of reach at equal
+    # time here, and 1.35x is the bar this test holds (issue 21's note).
+    assert found[P.DIFFUSE_INDIRECT]["rmae"] <= 1.35 * CYCLES_1024[P.DIFFUSE_INDIRECT]
