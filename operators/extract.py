@@ -235,10 +235,14 @@ def _environment_rotation(world, texture, warnings) -> np.ndarray:
     return rotation.T if mapping.vector_type == "TEXTURE" else rotation  # Texture maps by the inverse
 
 
-def camera_of(scene) -> Camera:
+def camera_of(scene, depsgraph=None) -> Camera:
+    """The camera of ``scene`` as ``depsgraph`` evaluates it (its animated transform and lens: in an animation
+    render the original object stays where it was), or as stored without one."""
     cam_obj = scene.camera
     if cam_obj is None:
         raise ExtractionError(f"scene {scene.name!r} has no active camera (set Scene > Camera)")
+    if depsgraph is not None:
+        cam_obj = cam_obj.evaluated_get(depsgraph)
     cam = cam_obj.data
     if cam.type not in {"PERSP", "ORTHO"}:
         raise ExtractionError(f"camera {cam_obj.name!r}: type {cam.type} is not supported (use Perspective or "
@@ -265,7 +269,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way."""
     scene = depsgraph.scene_eval
     warnings: list[str] = []
-    camera = camera_of(depsgraph.scene)
+    camera = camera_of(depsgraph.scene, depsgraph)
     materials = MaterialTable(warnings)
     parts, lights, names = [], [], {}
     for inst in depsgraph.object_instances:
