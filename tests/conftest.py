@@ -73,6 +73,39 @@ def pass_errors(image, reference, name="Diffuse Direct") -> dict:
     return json.loads(stdout)[name]
 
 
+def add_mesh(bpy, name, verts, faces, material=None, location=(0, 0, 0)):
+    """A mesh object of ``verts`` and ``faces`` (with ``material``) linked into the current scene."""
+    mesh = bpy.data.meshes.new(name)
+    mesh.from_pydata(verts, [], faces)
+    obj = bpy.data.objects.new(name, mesh)
+    obj.location = location
+    if material is not None:
+        mesh.materials.append(material)
+    bpy.context.scene.collection.objects.link(obj)
+    return obj
+
+
+def surface_material(bpy, name, build):
+    """A material whose Surface is the output socket ``build(nodes, links)`` returns (its Principled BSDF removed)."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender < 5.0
+        mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    nodes.remove(nodes["Principled BSDF"])
+    links.new(build(nodes, links), nodes["Material Output"].inputs["Surface"])
+    return mat
+
+
+def shader_material(bpy, name, shader, inputs):
+    """A material of one ``shader`` node (its bl_idname) with ``inputs`` (socket name -> value) set."""
+    def build(nodes, links):
+        node = nodes.new(shader)
+        for socket, value in inputs.items():
+            node.inputs[socket].default_value = value
+        return node.outputs[0]
+    return surface_material(bpy, name, build)
+
+
 def camera_and_black_world(bpy, scene, location, rotation=(0.0, 0.0, 0.0)):
     """Give a scene built in a test its camera (at ``location``, Euler ``rotation``) and a black world."""
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))

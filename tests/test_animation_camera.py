@@ -5,6 +5,8 @@ camera at its first position while everything else moved."""
 import numpy as np
 import pytest
 
+from conftest import add_mesh
+
 pytestmark = pytest.mark.blender
 
 
@@ -12,9 +14,7 @@ def _animated_camera_scene(bpy):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = 32
-    floor = bpy.data.meshes.new("Floor")
-    floor.from_pydata([(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], [], [(0, 1, 2, 3)])
-    scene.collection.objects.link(bpy.data.objects.new("Floor", floor))
+    add_mesh(bpy, "Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], [(0, 1, 2, 3)])
     bpy.ops.mesh.primitive_cube_add(size=1.5, location=(0.0, 0.0, 0.75))
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy = 3.0

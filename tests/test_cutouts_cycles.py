@@ -6,7 +6,7 @@ sees the floor through the fence's holes."""
 import numpy as np
 import pytest
 
-from conftest import camera_and_black_world, pass_errors, run_cli
+from conftest import add_mesh, camera_and_black_world, pass_errors, run_cli
 
 pytestmark = pytest.mark.blender
 
@@ -16,16 +16,12 @@ def fence_blend(tmp_path):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = 48
-    floor = bpy.data.meshes.new("Floor")
-    floor.from_pydata([(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], [], [(0, 1, 2, 3)])
-    scene.collection.objects.link(bpy.data.objects.new("Floor", floor))
-    fence = bpy.data.meshes.new("Fence")
-    fence.from_pydata([(-1.5, 0, 0), (1.5, 0, 0), (1.5, 0, 2), (-1.5, 0, 2)], [], [(0, 1, 2, 3)])  # upright
+    add_mesh(bpy, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], [(0, 1, 2, 3)])  # and an upright fence
+    fence_obj = add_mesh(bpy, "Fence", [(-1.5, 0, 0), (1.5, 0, 0), (1.5, 0, 2), (-1.5, 0, 2)], [(0, 1, 2, 3)])
+    fence = fence_obj.data
     layer = fence.uv_layers.new(name="UVMap")
     for loop, uv in zip(fence.loops, ((0, 0), (1, 0), (1, 1), (0, 1))):
         layer.data[loop.index].uv = uv
-    fence_obj = bpy.data.objects.new("Fence", fence)
-    scene.collection.objects.link(fence_obj)
 
     # 16 x 16 RGBA: four opaque bars along v with holes between, and a ramp of alpha the clip turns into 0 or 1
     size = 16

@@ -5,7 +5,7 @@ Cycles'. The block's shadow from the map's small bright sun is where Cycles puts
 import numpy as np
 import pytest
 
-from conftest import pass_errors, run_cli
+from conftest import add_mesh, pass_errors, run_cli
 from test_environment import sky
 
 pytestmark = pytest.mark.blender
@@ -16,13 +16,9 @@ def hdri_blend(tmp_path):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = 48
-    floor = bpy.data.meshes.new("Floor")
-    floor.from_pydata([(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], [], [(0, 1, 2, 3)])
-    scene.collection.objects.link(bpy.data.objects.new("Floor", floor))
-    block = bpy.data.meshes.new("Block")
+    add_mesh(bpy, "Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], [(0, 1, 2, 3)])
     c = [(x, y, z) for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (0.0, 1.0)]
-    block.from_pydata(c, [], [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
-    scene.collection.objects.link(bpy.data.objects.new("Block", block))
+    add_mesh(bpy, "Block", c, [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location = (0, 0, 9)
     scene.collection.objects.link(cam)

@@ -4,6 +4,8 @@ import math
 import numpy as np
 import pytest
 
+from conftest import add_mesh
+
 pytestmark = pytest.mark.blender
 
 
@@ -22,17 +24,6 @@ def bpy(ext):
 def extracted(bpy):
     from vpl_gi.operators.extract import extract
     return extract(bpy.context.evaluated_depsgraph_get())
-
-
-def add_mesh(bpy, name, verts, faces, material=None, location=(0, 0, 0)):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(verts, [], faces)
-    obj = bpy.data.objects.new(name, mesh)
-    obj.location = location
-    if material is not None:
-        mesh.materials.append(material)
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 CUBE_V = [(x, y, z) for z in (-1, 1) for y in (-1, 1) for x in (-1, 1)]

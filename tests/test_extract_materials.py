@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES
-from test_extract import add_mesh, bpy, extracted  # noqa: F401 (bpy: the fixture)
+from conftest import EXAMPLES, add_mesh, surface_material
+from test_extract import bpy, extracted  # noqa: F401 (bpy: the fixture)
 
 pytestmark = pytest.mark.blender
 
@@ -176,18 +176,19 @@ def test_node_groups_are_followed_in_and_out(bpy):
     group.links.new(inside.outputs["Colour"], bsdf.inputs["Base Color"])
     group.links.new(inside.outputs["Metal"], bsdf.inputs["Metallic"])
     group.links.new(bsdf.outputs["BSDF"], outside.inputs["Shader"])
-    mat = bpy.data.materials.new("Grouped")
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
-    nodes.remove(nodes["Principled BSDF"])
-    node = nodes.new("ShaderNodeGroup")
-    node.node_tree = group
-    node.inputs["Metal"].default_value = 0.7
-    tex = nodes.new("ShaderNodeTexImage")
-    tex.image = _image(bpy, "colours", [[0.2, 0.4, 0.6, 1], [1, 1, 1, 1]])
-    links.new(tex.outputs["Color"], node.inputs["Colour"])
-    reroute = nodes.new("NodeReroute")
-    links.new(node.outputs["Shader"], reroute.inputs[0])
-    links.new(reroute.outputs[0], nodes["Material Output"].inputs["Surface"])
+
+    def grouped(nodes, links):
+        node = nodes.new("ShaderNodeGroup")
+        node.node_tree = group
+        node.inputs["Metal"].default_value = 0.7
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image = _image(bpy, "colours", [[0.2, 0.4, 0.6, 1], [1, 1, 1, 1]])
+        links.new(tex.outputs["Color"], node.inputs["Colour"])
+        reroute = nodes.new("NodeReroute")
+        links.new(node.outputs["Shader"], reroute.inputs[0])
+        return reroute.outputs[0]
+
+    mat = surface_material(bpy, "Grouped", grouped)
     obj = add_mesh(bpy, "Tri", [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [(0, 1, 2)], material=mat)
     obj.data.uv_layers.new(name="UVMap")
     scene, warnings = extracted(bpy)
@@ -198,15 +199,6 @@ def test_node_groups_are_followed_in_and_out(bpy):
     base, roughness = m.maps[m.mapped("base_color")[i]], m.maps[m.mapped("roughness")[i]]
     assert scene.textures[base.image][0, 0, :3] == pytest.approx((0.2, 0.4, 0.6))
     assert roughness.channel == 1 and scene.textures[roughness.image][0, 1, 1] == pytest.approx(0.7)
-
-
-def _shader_material(bpy, name, build):
-    """A material whose Surface is what ``build(nodes, links)`` returns (an output socket)."""
-    mat = bpy.data.materials.new(name)
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
-    nodes.remove(nodes["Principled BSDF"])
-    links.new(build(nodes, links), nodes["Material Output"].inputs["Surface"])
-    return mat
 
 
 def test_glossy_mix_and_add_shaders(bpy):
@@ -253,7 +245,7 @@ def test_glossy_mix_and_add_shaders(bpy):
     for k, (name, build) in enumerate((("Glossy", glossy), ("Leaf", leaf), ("Veil", veil), ("Glow", glow),
                                        ("Blend", blend))):
         obj = add_mesh(bpy, name, [(0, 0, k), (1, 0, k), (0, 1, k)], [(0, 1, 2)],
-                       material=_shader_material(bpy, name, build))
+                       material=surface_material(bpy, name, build))
         obj.data.uv_layers.new(name="UVMap")
     scene, warnings = extracted(bpy)
     m = scene.materials

@@ -5,16 +5,9 @@ does the engine (``materials.cutouts``: shadow rays through glass report it)."""
 import numpy as np
 import pytest
 
-from conftest import camera_and_black_world, pass_errors, run_cli
+from conftest import add_mesh, camera_and_black_world, pass_errors, run_cli, shader_material
 
 pytestmark = pytest.mark.blender
-
-
-def quad(bpy, scene, name, corners, material):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(corners, [], [(0, 1, 2, 3)])
-    mesh.materials.append(material)
-    scene.collection.objects.link(bpy.data.objects.new(name, mesh))
 
 
 def window_blend(tmp_path):
@@ -22,14 +15,7 @@ def window_blend(tmp_path):
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = 40
-    white = bpy.data.materials.new("White")
-    if white.node_tree is None:  # Blender < 5.0
-        white.use_nodes = True
-    nodes = white.node_tree.nodes
-    nodes.remove(nodes["Principled BSDF"])
-    diffuse = nodes.new("ShaderNodeBsdfDiffuse")
-    diffuse.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
-    white.node_tree.links.new(diffuse.outputs[0], nodes["Material Output"].inputs["Surface"])
+    white = shader_material(bpy, "White", "ShaderNodeBsdfDiffuse", {"Color": (0.8, 0.8, 0.8, 1.0)})
     # a closed 4 x 4 x 2.5 m room; the wall at y = 2 has an opening x in [-0.6, 0.6], z in [0.8, 1.8]
     x0, x1, y0, y1, top = -2.0, 2.0, -2.0, 2.0, 2.5
     for name, corners in (("Floor", [(x0, y0, 0), (x1, y0, 0), (x1, y1, 0), (x0, y1, 0)]),
@@ -41,21 +27,11 @@ def window_blend(tmp_path):
                           ("WallR", [(0.6, y1, 0), (x1, y1, 0), (x1, y1, top), (0.6, y1, top)]),
                           ("Sill", [(-0.6, y1, 0), (0.6, y1, 0), (0.6, y1, 0.8), (-0.6, y1, 0.8)]),
                           ("Lintel", [(-0.6, y1, 1.8), (0.6, y1, 1.8), (0.6, y1, top), (-0.6, y1, top)])):
-        quad(bpy, scene, name, corners, white)
-    glass = bpy.data.materials.new("Glass")
-    if glass.node_tree is None:
-        glass.use_nodes = True
-    nodes = glass.node_tree.nodes
-    nodes.remove(nodes["Principled BSDF"])
-    bsdf = nodes.new("ShaderNodeBsdfGlass")
-    bsdf.inputs["Roughness"].default_value = 0.0
-    bsdf.inputs["IOR"].default_value = 1.5
-    glass.node_tree.links.new(bsdf.outputs[0], nodes["Material Output"].inputs["Surface"])
-    pane = bpy.data.meshes.new("Pane")
+        add_mesh(bpy, name, corners, [(0, 1, 2, 3)], material=white)
+    glass = shader_material(bpy, "Glass", "ShaderNodeBsdfGlass", {"Roughness": 0.0, "IOR": 1.5})
     c = [(x, y, z) for z in (0.8, 1.8) for y in (1.99, 2.01) for x in (-0.6, 0.6)]
-    pane.from_pydata(c, [], [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)])
-    pane.materials.append(glass)
-    scene.collection.objects.link(bpy.data.objects.new("Pane", pane))
+    add_mesh(bpy, "Pane", c, [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)],
+             material=glass)
 
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy = 5.0

@@ -94,7 +94,7 @@ def test_a_glossy_bsdf_floor_at_grazing_reflects_the_sun_as_cycles_does(ext, tmp
     1.37."""
     import bpy
     import numpy as np
-    from conftest import camera_and_black_world
+    from conftest import camera_and_black_world, shader_material
     from vpl_gi.operators.extract import extract
     from vpl_gi.operators.output import render_to
     from vpl_gi.operators.reference import configure_cycles
@@ -105,16 +105,8 @@ def test_a_glossy_bsdf_floor_at_grazing_reflects_the_sun_as_cycles_does(ext, tmp
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     bpy.ops.mesh.primitive_plane_add(size=40.0)
-    mat = bpy.data.materials.new("Glossy")
-    if mat.node_tree is None:  # Blender < 5.0
-        mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    nodes.remove(nodes["Principled BSDF"])
-    glossy = nodes.new("ShaderNodeBsdfGlossy")
-    glossy.inputs["Color"].default_value = (grey, grey, grey, 1.0)
-    glossy.inputs["Roughness"].default_value = 0.3
-    mat.node_tree.links.new(glossy.outputs[0], nodes["Material Output"].inputs["Surface"])
-    bpy.context.object.data.materials.append(mat)
+    bpy.context.object.data.materials.append(
+        shader_material(bpy, "Glossy", "ShaderNodeBsdfGlossy", {"Color": (grey, grey, grey, 1.0), "Roughness": 0.3}))
     tilt = np.radians(90.0 - elevation)
     sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
     sun.data.energy, sun.data.angle = 3.0, 0.1

@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from conftest import run_cli
+from conftest import add_mesh, run_cli
 from stress_scenes import RESULTS
 
 pytestmark = pytest.mark.blender
@@ -18,15 +18,6 @@ def one_error_line(code, stderr):
     lines = [line for line in stderr.splitlines() if line.startswith("vpl_addon: error:")]
     assert len(lines) == 1, stderr
     return lines[0]
-
-
-def add_mesh(bpy, name, verts, faces, location=(0, 0, 0)):
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata(verts, [], faces)
-    obj = bpy.data.objects.new(name, mesh)
-    obj.location = location
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
 
 
 def add_light(bpy, name, kind="POINT", location=(0, 0, 2), energy=100.0):
