@@ -106,6 +106,25 @@ def shader_material(bpy, name, shader, inputs):
     return surface_material(bpy, name, build)
 
 
+def direct_against_cycles(label, blend, tmp_path, reference=None) -> tuple[dict, dict, str]:
+    """Diffuse Direct of the engine (64 spp, no indirect) and of Cycles at 64 spp against ``reference`` (Cycles at
+    1024 spp, rendered into ``tmp_path`` when not given): (our errors, Cycles' errors, the engine's stderr)."""
+    ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles64.exr"
+    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "64", "--method", "none")
+    assert code == 0, stderr
+    todo = [(cycles, 64)]
+    if reference is None:
+        reference = tmp_path / "reference.exr"
+        todo.append((reference, 1024))
+    for path, samples in todo:
+        code, _, err = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir", tmp_path / "cache")
+        assert code == 0, err
+    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
+    print(f"{label}: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
+          f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
+    return e_ours, e_cycles, stderr
+
+
 def camera_and_black_world(bpy, scene, location, rotation=(0.0, 0.0, 0.0)):
     """Give a scene built in a test its camera (at ``location``, Euler ``rotation``) and a black world."""
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))

@@ -6,7 +6,7 @@ sees the floor through the fence's holes."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world, pass_errors, run_cli
+from conftest import add_mesh, camera_and_black_world, direct_against_cycles
 
 pytestmark = pytest.mark.blender
 
@@ -61,21 +61,12 @@ def fence_blend(tmp_path):
 
 
 def test_a_cut_out_fence_casts_the_shadow_cycles_renders(ext, tmp_path):
-    blend = fence_blend(tmp_path)
-    ours, cycles, reference = tmp_path / "ours.exr", tmp_path / "cycles64.exr", tmp_path / "reference.exr"
-    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "64", "--method", "none")
-    assert code == 0 and "warning" not in stderr.lower(), stderr
-    for path, samples in ((cycles, 64), (reference, 1024)):
-        code, _, stderr = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir",
-                                  tmp_path / "cache")
-        assert code == 0, stderr
-    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
-    print(f"fence: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
-          f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
+    e_ours, e_cycles, stderr = direct_against_cycles("fence", fence_blend(tmp_path), tmp_path)
+    assert "warning" not in stderr.lower(), stderr
     assert abs(e_ours["mean_ratio"] - 1.0) <= 0.02
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.01
     # without the holes the floor under the fence would be dark: the stripes are the shadow's, not noise
     from vpl_gi.vpl_addon.core.exr import read_passes
-    ref, _ = read_passes(str(reference))
+    ref, _ = read_passes(str(tmp_path / "reference.exr"))
     lit = ref["Diffuse Direct"][..., 0]
     assert (lit > 0.5).mean() > 0.3 and (lit < 0.05).mean() > 0.03  # four bar shadows: 4.6 % of the pixels

@@ -4,7 +4,7 @@ than Cycles' own at 64 samples per pixel. References are committed; a stale one 
 
 import pytest
 
-from conftest import EXAMPLE_SCENES, EXAMPLES, REFERENCES, pass_errors, run_cli
+from conftest import EXAMPLE_SCENES, EXAMPLES, REFERENCES, direct_against_cycles
 
 pytestmark = pytest.mark.blender
 REFERENCE_SAMPLES = 4096
@@ -23,15 +23,7 @@ def test_committed_reference_is_fresh(ext, name):
 
 @pytest.mark.parametrize("name", EXAMPLE_SCENES)
 def test_diffuse_direct_matches_cycles(ext, name, tmp_path):
-    reference = REFERENCES / f"{name}.exr"
-    ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles64.exr"
-    code, _, stderr = run_cli("render", EXAMPLES / f"{name}.blend", "-o", ours, "--samples", "64", "--method", "none")
-    assert code == 0, stderr
-    code, _, stderr = run_cli("reference", EXAMPLES / f"{name}.blend", "-o", cycles, "--samples", "64",
-                              "--cache-dir", tmp_path / "cache")
-    assert code == 0, stderr
-    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
-    print(f"{name}: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
-          f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
+    e_ours, e_cycles, _ = direct_against_cycles(name, EXAMPLES / f"{name}.blend", tmp_path,
+                                                reference=REFERENCES / f"{name}.exr")
     assert abs(e_ours["mean_ratio"] - 1.0) <= 0.02
     assert e_ours["rmae"] <= e_cycles["rmae"]

@@ -5,7 +5,7 @@ Cycles'. The block's shadow from the map's small bright sun is where Cycles puts
 import numpy as np
 import pytest
 
-from conftest import add_mesh, pass_errors, run_cli
+from conftest import add_mesh, direct_against_cycles
 from test_environment import sky
 
 pytestmark = pytest.mark.blender
@@ -51,16 +51,7 @@ def hdri_blend(tmp_path):
 
 
 def test_an_hdri_lights_and_shadows_as_in_cycles(ext, tmp_path):
-    blend = hdri_blend(tmp_path)
-    ours, cycles, reference = tmp_path / "ours.exr", tmp_path / "cycles64.exr", tmp_path / "reference.exr"
-    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "64", "--method", "none")
-    assert code == 0 and "warning" not in stderr, stderr
-    for path, samples in ((cycles, 64), (reference, 1024)):
-        code, _, stderr = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir",
-                                  tmp_path / "cache")
-        assert code == 0, stderr
-    e_ours, e_cycles = pass_errors(ours, reference), pass_errors(cycles, reference)
-    print(f"hdri: ours rMAE {e_ours['rmae']:.4f} mean ratio {e_ours['mean_ratio']:.4f}; "
-          f"Cycles 64 spp rMAE {e_cycles['rmae']:.4f} mean ratio {e_cycles['mean_ratio']:.4f}")
+    e_ours, e_cycles, stderr = direct_against_cycles("hdri", hdri_blend(tmp_path), tmp_path)
+    assert "warning" not in stderr, stderr
     assert abs(e_ours["mean_ratio"] - 1.0) <= 0.02
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"]
