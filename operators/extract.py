@@ -33,7 +33,8 @@ def _matrix(m) -> np.ndarray:
 
 
 def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warnings: list[str]):
-    """(triangles, normals, uvs, material ids, object ids, tangents or None) of a geometry object in world space."""
+    """(triangles, normals, uvs, material ids, object ids, tangents or None, colours or None) of a geometry object
+    in world space."""
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -59,11 +60,12 @@ def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warni
         slot_ids = np.array(slots, np.int32)
         mat = slot_ids[np.clip(mat_local, 0, len(slot_ids) - 1)]
         uvs = _uvs(obj, mesh, materials, slots, mat, lidx, warnings)
+        colors = _colors(obj, mesh, materials, slots, mat, lidx, vidx, warnings)
         tangents = None
         if any(materials.normal_mapped(i) for i in slots):
             tangents = _tangents(obj, mesh, materials, slots, m, mirrored, warnings)
             tangents = None if tangents is None else tangents[lidx]
-        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32), tangents
+        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32), tangents, colors
     finally:
         obj.to_mesh_clear()
 
@@ -97,6 +99,31 @@ def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warni
         rows = mat == i
         uvs[rows] = read[layer.name][lidx[rows]]
     return uvs
+
+
+def _colors(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, vidx, warnings) -> np.ndarray | None:
+    """(T,3,3) linear RGB per corner of the colour attribute each material reads (its Color Attribute node's, or
+    the mesh's render colour for an unnamed one), None when no material here reads one. A missing attribute is
+    black, as Cycles renders it, with a warning naming it."""
+    wanted = {i: materials.color_attribute[i] for i in set(slots) if i in materials.color_attribute}
+    if not wanted:
+        return None
+    attributes = mesh.color_attributes
+    colors = np.zeros((len(lidx), 3, 3), np.float32)
+    for i, name in wanted.items():
+        if not name:
+            index = attributes.render_color_index
+            name = attributes[index].name if 0 <= index < len(attributes) else ""
+        attribute = attributes.get(name) if name else None
+        if attribute is None or attribute.domain not in ("POINT", "CORNER"):
+            warnings.append(f"object {obj.name!r}: material {materials.rows[i - 1]['name']!r} reads colour "
+                            f"attribute {name or '(the default)'!r}, which the mesh does not have (per point or "
+                            f"corner); black, as in Cycles")
+            continue
+        values = _array(attribute.data, "color", 4)[:, :3]  # scene-linear for byte and float colours alike
+        rows = mat == i
+        colors[rows] = values[(lidx if attribute.domain == "CORNER" else vidx)[rows]]
+    return colors
 
 
 def _tangents(obj, mesh, materials: MaterialTable, slots: list[int], m: np.ndarray, mirrored: bool, warnings):
@@ -288,12 +315,14 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
                                   warnings)
             if arrays is not None:
                 parts.append(arrays)
-    tangents = None
+    tangents = colors = None
     if parts:
         triangles, normals, uvs, material, object_id = (np.concatenate(a) for a in list(zip(*parts))[:5])
         if any(p[5] is not None for p in parts):  # the rest are made from UVs by Scene.build
             tangents = np.concatenate([np.full((len(p[0]), 3, 4), np.nan) if p[5] is None else p[5]
                                        for p in parts])
+        if any(p[6] is not None for p in parts):
+            colors = np.concatenate([np.zeros((len(p[0]), 3, 3)) if p[6] is None else p[6] for p in parts])
     else:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
@@ -302,6 +331,6 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     world, environment = _world(scene, warnings)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(names) or ["none"], world=world,
-                        environment=environment, textures=materials.textures, tangents=tangents,
+                        environment=environment, textures=materials.textures, tangents=tangents, colors=colors,
                         max_bounces=bounces)
     return built, warnings

@@ -6,7 +6,9 @@ An input's link is followed back through reroutes to an Image Texture, across wh
   B metallic);
 - Mix Color (Multiply) or Math (Multiply) with a constant: a factor (glTF's base colour, roughness, metallic
   factors);
-- Normal Map (tangent space) into Normal: the image is a tangent-space normal map of that strength and UV map.
+- Normal Map (tangent space) into Normal: the image is a tangent-space normal map of that strength and UV map;
+- a Color Attribute node (or an Attribute node's Color of a geometry attribute) in place of the image, or multiplied
+  with it by a Mix Color (Multiply, factor 1): the mesh's colour attribute (vertex colours, glTF's COLOR_0).
 The image's Vector comes from the default UV map, a UV Map node or Texture Coordinate's UV, through a Mapping node
 (its location, rotation and scale as an affine UV transform). Links are followed through reroutes and into and out of
 node groups. Anything else keeps the input's value, with one warning naming the material, the input and the node.
@@ -146,6 +148,17 @@ def _threshold(node) -> tuple[float, object] | None:
     return None if cutoff is None or compared is None else (cutoff, compared)
 
 
+def _attribute(out) -> str | None:
+    """The colour attribute an output socket reads ('' for the mesh's default), None when it is not the Color of a
+    Color Attribute node or of an Attribute node of the geometry."""
+    node = out.node
+    if node.type == "VERTEX_COLOR" and out.name == "Color":
+        return node.layer_name
+    if node.type == "ATTRIBUTE" and node.attribute_type == "GEOMETRY" and out.name == "Color":
+        return node.attribute_name
+    return None
+
+
 def _mapping_uv(node) -> tuple | None:
     """The UV affine transform (a, b, c, d, e, f) of a Mapping node with constant inputs, None if unsupported."""
     kind = node.vector_type
@@ -178,16 +191,18 @@ class MaterialTable:
         self.texture_index: dict[tuple[str, bool], int] = {}
         self.uv_map: dict[int, str | None] = {}
         self.images: dict[int, list[str]] = {}  # material id -> names of the images it reads
+        self.color_attribute: dict[int, str] = {}  # material id -> the colour attribute it reads ('' the default)
         self.warnings = warnings
         self._uv_names: list[str | None] = []  # of the material being read
         self._image_names: list[str] = []
+        self._attributes: list[str] = []
 
     def id_of(self, material) -> int:
         if material is None:
             return 0
         key = material.name_full
         if key not in self.index:
-            self._uv_names, self._image_names = [], []
+            self._uv_names, self._image_names, self._attributes = [], [], []
             self.rows.append(self._read(material))
             self.index[key] = len(self.rows)
             names = sorted({n for n in self._uv_names if n is not None})  # None: the default map
@@ -196,6 +211,13 @@ class MaterialTable:
                                      f"({', '.join(names)}); all read {names[0]!r}")
             self.uv_map[self.index[key]] = names[0] if names else None
             self.images[self.index[key]] = self._image_names
+            attributes = sorted(set(self._attributes))
+            if len(attributes) > 1:
+                self.warnings.append(f"material {material.name!r}: it reads several colour attributes "
+                                     f"({', '.join(a or 'the default' for a in attributes)}); all read "
+                                     f"{attributes[0] or 'the default'!r}")
+            if attributes:
+                self.color_attribute[self.index[key]] = attributes[0]
         return self.index[key]
 
     def normal_mapped(self, material_id: int) -> bool:
@@ -221,7 +243,7 @@ class MaterialTable:
     def _map(self, material, label: str, socket, normal: bool = False) -> TextureMap | None:
         """The TextureMap feeding ``socket`` (None with a warning when the chain is not one the engine reads)."""
         out, channel, factor, strength = _source(socket), -1, np.ones(3), 1.0
-        uv_name, cutoff = None, -1.0
+        uv_name, cutoff, attribute = None, -1.0, None
 
         def unsupported(node, why=""):
             self.warnings.append(f"material {material.name!r}: {label} from {node.bl_label!r} ({node.name}) is not "
@@ -230,7 +252,7 @@ class MaterialTable:
 
         while out is not None:
             node = out.node
-            if node.type == "TEX_IMAGE":
+            if node.type == "TEX_IMAGE" or (_attribute(out) is not None and attribute is None):
                 break
             if normal and node.type == "NORMAL_MAP":
                 s = _constant(node.inputs["Strength"])
@@ -246,8 +268,14 @@ class MaterialTable:
                     and not node.clamp_result:
                 f, a, b = _constant(node.inputs[0]), node.inputs[6], node.inputs[7]
                 linked = [s for s in (a, b) if _source(s) is not None]
+                colours = [s for s in linked if _attribute(_source(s)) is not None]
+                if f == 1.0 and len(linked) == 2 and colours and attribute is None:  # image x colour attribute
+                    attribute = _attribute(_source(colours[0]))
+                    out = _source(b if _same(colours[0], a) else a)
+                    continue
                 if f is None or len(linked) != 1:
-                    return unsupported(node, " (only a Multiply of one image by a constant colour)")
+                    return unsupported(node, " (only a Multiply of one image or colour attribute by a constant "
+                                             "colour, or of an image by a colour attribute)")
                 other = np.array(_constant(b if _same(linked[0], a) else a)[:3])
                 factor = factor * (1.0 - f + f * other)
                 out = _source(linked[0])
@@ -266,6 +294,9 @@ class MaterialTable:
         node = out.node
         if normal:
             return unsupported(node, " without a Normal Map node")
+        if node.type != "TEX_IMAGE":  # a colour attribute alone
+            self._attributes.append(_attribute(out))
+            return TextureMap(-1, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), vertex=True)
         if node.image is None:
             return None
         if node.projection != "FLAT":
@@ -294,8 +325,11 @@ class MaterialTable:
             return None
         self._uv_names.append(uv_name)
         self._image_names.append(node.image.name)
+        if attribute is not None:
+            self._attributes.append(attribute)
         return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), tuple(uv),
-                          extension, node.interpolation == "Closest", float(strength), float(cutoff))
+                          extension, node.interpolation == "Closest", float(strength), float(cutoff),
+                          vertex=attribute is not None)
 
     def _read(self, material) -> dict:
         row = {"name": material.name}

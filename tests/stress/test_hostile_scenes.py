@@ -95,6 +95,14 @@ def cases():
         yield f"normal map of NaN, zero and backward normals, strength {strength:g}, bad tangents", Scene.build(
             base.triangles, materials(maps={"normal": TextureMap(0, strength=strength)}), base.lights, base.camera,
             material=base.material, uvs=uvs, textures=[wild_normals], tangents=bad_tangents), {}
+    wild_colours = np.random.default_rng(4).choice([np.nan, np.inf, -np.inf, -3.0, 1e30, 0.5], (12, 3, 3))
+    yield "colour attribute of NaN, infinite, negative and huge values on every input", Scene.build(
+        base.triangles, materials(maps={name: TextureMap(-1, vertex=True) for name in (
+            "base_color", "roughness", "metallic", "emission", "alpha")}), base.lights, base.camera,
+        material=base.material, colors=wild_colours), {}
+    yield "colour attribute read by a mesh without one (black)", Scene.build(
+        base.triangles, materials(maps={"base_color": TextureMap(0, vertex=True)}), base.lights, base.camera,
+        material=base.material, uvs=uvs, textures=[wild_normals]), {}
     yield "walls of alpha 0 (every ray goes through)", room(materials=materials(alpha=0.0)), {}
     yield "half-transparent albedo-1 room, 100 bounces", room(materials=materials(
         alpha=0.5, base_color=(1.0, 1.0, 1.0)), max_bounces=100), {}

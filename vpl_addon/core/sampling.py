@@ -94,6 +94,11 @@ def triangle_barycentrics(u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, n
     return su * (1.0 - u2), su * u2
 
 
+def interpolated(corners: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """(K,C) the per-corner values (K,3,C) at barycentric coordinates (K,3), in float64."""
+    return np.einsum("kj,kjc->kc", bary, corners.astype(np.float64))
+
+
 def sample_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
     """Indices drawn from a discrete distribution given by its normalised, non-decreasing CDF."""
     return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)

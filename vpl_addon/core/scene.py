@@ -5,7 +5,8 @@ or directly in code (tests, stress scenes). ``Scene.build`` sanitises the input 
 non-finite corners or zero area are dropped (and counted per object so the caller can name them), shading normals
 that are missing, non-finite or zero fall back to the geometric normal, non-finite UVs become 0, non-finite or
 negative texels become 0 and a material input whose texture does not exist uses the input's value; tangents (for
-normal maps) that are missing or unusable are made from the triangle's UVs.
+normal maps) that are missing or unusable are made from the triangle's UVs; colour attributes that are
+non-finite or negative become 0, and a missing one black (as Cycles reads it).
 """
 from __future__ import annotations
 
@@ -32,9 +33,10 @@ class TextureMap:
     Color node gives them, 3: the image's alpha) or, for a colour feeding a scalar input, its luminance. For the
     ``normal`` input the colour is a tangent-space normal (Normal Map node) and ``strength`` its Strength. A
     ``cutoff`` (alpha clip, as the glTF importer builds it for a MASK material: 1 - (value < cutoff)) makes the value
-    1 where it reaches the cutoff and 0 below."""
+    1 where it reaches the cutoff and 0 below. With ``vertex`` the colour is multiplied by the mesh's colour
+    attribute (Blender's Color Attribute node, ``Scene.colors``); ``image`` -1 then reads that colour alone."""
 
-    image: int  # index into Scene.textures
+    image: int  # index into Scene.textures; -1: no image (with ``vertex``: the colour attribute alone)
     channel: int = -1  # -1 the colour, 0..2 one channel, 3 the alpha
     factor: tuple = (1.0, 1.0, 1.0)  # multiplies the value (glTF factors, a Multiply by a constant)
     uv: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)  # (a, b, c, d, e, f): u' = a u + b v + c, v' = d u + e v + f
@@ -42,6 +44,7 @@ class TextureMap:
     closest: bool = False  # interpolation Closest instead of Linear
     strength: float = 1.0  # Normal Map strength
     cutoff: float = -1.0  # alpha clip threshold on the value; negative: none
+    vertex: bool = False  # times the interpolated colour attribute (``Scene.colors``)
 
 
 @dataclass
@@ -180,13 +183,15 @@ class Scene:
     environment: Environment | None = None  # the world as a map (then ``world`` is not used)
     textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3|4) float32 linear, row 0 = bottom (v = 0)
     tangents: np.ndarray | None = None  # (T,3,4) float32 per-corner tangent and bitangent sign, for normal maps
+    colors: np.ndarray | None = None  # (T,3,3) float32 per-corner linear RGB of the colour attribute each
+    # triangle's material reads (Color Attribute node); None when no material reads one
     dropped: dict[str, int] = field(default_factory=dict)  # object name -> triangles dropped by build()
     max_bounces: int = 8  # diffuse bounce limit of light paths (Cycles' min(max_bounces, diffuse_bounces))
 
     @staticmethod
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
               object_id=None, object_names=None, world=(0.0, 0.0, 0.0), environment=None, textures=(),
-              tangents=None, max_bounces=8) -> "Scene":
+              tangents=None, colors=None, max_bounces=8) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         n = len(tri)
@@ -196,6 +201,7 @@ class Scene:
         normals = None if normals is None else np.asarray(normals, np.float64).reshape(n, 3, 3)
         uvs = np.zeros((n, 3, 2)) if uvs is None else np.asarray(uvs, np.float64).reshape(n, 3, 2)
         tangents = None if tangents is None else np.asarray(tangents, np.float64).reshape(n, 3, 4)
+        colors = None if colors is None else np.asarray(colors, np.float64).reshape(n, 3, 3)
 
         ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         area2 = np.linalg.norm(ng, axis=1)
@@ -207,6 +213,7 @@ class Scene:
             dropped[object_names[oid] if 0 <= oid < len(object_names) else str(oid)] = int(count)
         tri, ng, area2, uvs, material, object_id = (a[keep] for a in (tri, ng, area2, uvs, material, object_id))
         tangents = None if tangents is None else tangents[keep]
+        colors = None if colors is None else colors[keep]
         ng = ng / area2[:, None]
         if normals is None:
             sn = np.repeat(ng[:, None, :], 3, axis=1)
@@ -222,6 +229,12 @@ class Scene:
         textures = [np.maximum(np.nan_to_num(np.asarray(t, np.float32), nan=0.0, posinf=0.0), 0.0)
                     for t in textures]
         materials = _usable_maps(materials, textures)
+        if not any(t.vertex for t in materials.maps):
+            colors = None
+        elif colors is None:  # Cycles reads a missing colour attribute as black
+            colors = np.zeros((len(tri), 3, 3))
+        else:
+            colors = np.maximum(np.nan_to_num(colors, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
         if (materials.mapped("normal") >= 0).any():
             tangents = _tangents(tri, ng, uvs, tangents)
         else:
@@ -235,6 +248,7 @@ class Scene:
                                                                                        environment.rotation),
                      textures=textures, dropped=dropped,
                      tangents=None if tangents is None else tangents.astype(np.float32),
+                     colors=None if colors is None else colors.astype(np.float32),
                      max_bounces=max(0, int(max_bounces)))
 
     @property
@@ -266,6 +280,8 @@ def _usable_maps(materials: Materials, textures: list[np.ndarray]) -> Materials:
     """The table with every texture map whose image is missing, empty or without the channel it reads unlinked
     (the input keeps its value); a copy when anything changes, so the caller's table stays as it was."""
     def usable(t: TextureMap) -> bool:
+        if t.image == -1 and t.vertex:
+            return t.channel < 3
         if not 0 <= t.image < len(textures):
             return False
         image = textures[t.image]

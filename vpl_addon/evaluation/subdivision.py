@@ -1,5 +1,6 @@
-"""Midpoint subdivision of a whole scene, for scaling runs: every triangle becomes four (corners, normals and UVs
-interpolated at the edge midpoints), so the surface and the image stay the same while the triangle count grows."""
+"""Midpoint subdivision of a whole scene, for scaling runs: every triangle becomes four (corners, normals, UVs,
+tangents and colours interpolated at the edge midpoints), so the surface and the image stay the same while the
+triangle count grows."""
 from __future__ import annotations
 
 import dataclasses
@@ -23,10 +24,11 @@ def subdivide(scene: Scene, levels: int = 1) -> Scene:
     for _ in range(levels):
         normals = _split(s.normals.astype(np.float64))
         normals /= np.maximum(np.linalg.norm(normals, axis=2, keepdims=True), 1e-12)
-        s = dataclasses.replace(s, triangles=_split(s.triangles.astype(np.float64)).astype(np.float32),
-                                normals=normals.astype(np.float32),
-                                uvs=_split(s.uvs.astype(np.float64)).astype(np.float32),
-                                material=np.repeat(s.material, 4), object_id=np.repeat(s.object_id, 4))
+        corners = {name: None if getattr(s, name) is None else
+                   _split(getattr(s, name).astype(np.float64)).astype(np.float32)
+                   for name in ("triangles", "uvs", "tangents", "colors")}
+        s = dataclasses.replace(s, normals=normals.astype(np.float32), material=np.repeat(s.material, 4),
+                                object_id=np.repeat(s.object_id, 4), **corners)
     return s
 
 

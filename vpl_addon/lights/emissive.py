@@ -8,7 +8,7 @@ import numpy as np
 
 from ..core.color import LUMINANCE
 from ..core.sampling import cosine_hemisphere, dot, sample_cdf, triangle_barycentrics
-from ..materials.textures import lookup
+from ..materials.textures import at_points
 from .light import Light
 
 MAP_POINTS = 4  # per side of the grid of points over a triangle that average an emission texture (16 points)
@@ -90,7 +90,7 @@ def _emission(scene) -> np.ndarray:
     bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)  # (P,3) spread over the triangle
     for t in np.unique(ids[ids >= 0]):
         tris = np.nonzero(ids == t)[0]
-        uv = np.einsum("pj,tjc->tpc", bary, scene.uvs[tris].astype(np.float64)).reshape(-1, 2)
-        value = lookup(m.maps[t], scene.textures, uv, scalar=False).reshape(len(tris), len(bary), 3)
+        value = at_points(m.maps[t], scene, np.repeat(tris, len(bary)), np.tile(bary, (len(tris), 1)),
+                          scalar=False).reshape(len(tris), len(bary), 3)
         out[tris] = np.maximum(np.nan_to_num(value.mean(axis=1), nan=0.0, posinf=0.0), 0.0)
     return out

@@ -20,8 +20,7 @@ import numpy as np
 
 from ..core.color import luminance
 from .microfacet import dielectric_fresnel
-from .surface import interpolated
-from .textures import lookup
+from .textures import at_points
 
 
 class Cutouts:
@@ -46,10 +45,9 @@ class Cutouts:
         linked = np.nonzero(ids >= 0)[0]
         if len(linked):
             bary = np.stack([1.0 - u[linked] - v[linked], u[linked], v[linked]], axis=1)
-            uv = interpolated(scene.uvs[prim[linked]], bary)
             for t in np.unique(ids[linked]):
                 sel = np.nonzero(ids[linked] == t)[0]
-                out[linked[sel]] = lookup(m.maps[t], scene.textures, uv[sel], scalar=True)
+                out[linked[sel]] = at_points(m.maps[t], scene, prim[linked[sel]], bary[sel], scalar=True)
         return np.clip(np.nan_to_num(out, nan=1.0), 0.0, 1.0)
 
     def passes(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, cos: np.ndarray,

@@ -17,9 +17,9 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..core.sampling import cosine_hemisphere, dot, normalize
+from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
-from .textures import lookup
+from .textures import at_points
 
 
 @dataclass
@@ -97,11 +97,6 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
                    smooth_normal=smooth)
 
 
-def interpolated(corners: np.ndarray, bary: np.ndarray) -> np.ndarray:
-    """(K,C) the per-corner values (K,3,C) at barycentric coordinates (K,3), in float64."""
-    return np.einsum("kj,kjc->kc", bary, corners.astype(np.float64))
-
-
 def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:
     """Per point, the material inputs an image can drive: their values, or the textures' where linked; ``normal``
     the shading normal after any normal map (not yet turned toward the ray)."""
@@ -112,30 +107,29 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
     linked = {name: m.mapped(name)[mat] for name in out}
     if not any((ids >= 0).any() for ids in linked.values()):
         return out
-    uv = interpolated(scene.uvs[prim], bary)
     out["normal"] = ns.copy()  # the caller's normals stay as they were; the other inputs are fresh copies
     for name, ids in linked.items():
         for t in np.unique(ids[ids >= 0]):
             sel = np.nonzero(ids == t)[0]
             tmap = m.maps[t]
             if name == "normal":
-                out[name][sel] = _normal_mapped(scene, tmap, prim[sel], bary[sel], ns[sel], uv[sel])
+                out[name][sel] = _normal_mapped(scene, tmap, prim[sel], bary[sel], ns[sel])
             else:
-                out[name][sel] = lookup(tmap, scene.textures, uv[sel], scalar=name in ("roughness", "metallic"))
+                out[name][sel] = at_points(tmap, scene, prim[sel], bary[sel], scalar=name in ("roughness", "metallic"))
     out["roughness"] = np.clip(out["roughness"], 0.0, 1.0)
     out["metallic"] = np.clip(out["metallic"], 0.0, 1.0)
     out["emission"] = np.maximum(out["emission"], 0.0)
     return out
 
 
-def _normal_mapped(scene, tmap, prim, bary, ns, uv) -> np.ndarray:
+def _normal_mapped(scene, tmap, prim, bary, ns) -> np.ndarray:
     """Cycles' Normal Map node in tangent space (``svm_node_normal_map``) at points with unflipped normals ``ns``."""
     t4 = interpolated(scene.tangents[prim], bary)
     t = t4[:, :3] - dot(t4[:, :3], ns)[:, None] * ns
     length = np.linalg.norm(t, axis=1, keepdims=True)
     t = np.where(length > 1e-12, t / np.maximum(length, 1e-300), 0.0)
     b = np.where(t4[:, 3:] < 0.0, -1.0, 1.0) * np.cross(ns, t)
-    c = 2.0 * lookup(tmap, scene.textures, uv, scalar=False) - 1.0
+    c = 2.0 * at_points(tmap, scene, prim, bary, scalar=False) - 1.0
     mapped = c[:, :1] * t + c[:, 1:2] * b + c[:, 2:] * ns
     if tmap.strength != 1.0:
         mapped = ns + (mapped - ns) * max(tmap.strength, 0.0)

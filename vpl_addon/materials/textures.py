@@ -1,12 +1,14 @@
 """Image textures as Cycles' Image Texture node reads them: bilinear (Linear) or nearest (Closest) lookups with the
 node's extension (Repeat, Extend, Clip), through the UV transform of a Mapping node, and the value a material input
 takes from them (``TextureMap``: colour, one channel or the alpha, times a factor). Texel rows run from the bottom
-(v = 0) as in Blender images. Every lookup is vectorised over all the points that use one map."""
+(v = 0) as in Blender images; a map may multiply in the mesh's colour attribute (Color Attribute node). Every
+lookup is vectorised over all the points that use one map."""
 from __future__ import annotations
 
 import numpy as np
 
 from ..core.color import luminance
+from ..core.sampling import interpolated
 from ..core.scene import TextureMap
 
 
@@ -51,17 +53,31 @@ def transformed_uv(tmap: TextureMap, uv: np.ndarray) -> np.ndarray:
     return np.stack([a * uv[:, 0] + b * uv[:, 1] + c, d * uv[:, 0] + e * uv[:, 1] + f], axis=1)
 
 
-def lookup(tmap: TextureMap, textures: list[np.ndarray], uv: np.ndarray, scalar: bool) -> np.ndarray:
+def lookup(tmap: TextureMap, textures: list[np.ndarray], uv: np.ndarray, scalar: bool,
+           color: np.ndarray | None = None) -> np.ndarray:
     """What the input fed by ``tmap`` receives at UVs (K,2): (K,) for a ``scalar`` input (a channel, or the
     colour's luminance as Blender converts a colour to a float), else (K,3) (a channel repeated: a float into a
-    colour input is grey)."""
-    image = textures[tmap.image]
-    texel = sample_bilinear(image, transformed_uv(tmap, uv), tmap.extension, tmap.closest)
+    colour input is grey). ``color`` (K,3) is the colour attribute at the points, which a ``vertex`` map
+    multiplies in (its alpha is 1)."""
+    if tmap.image >= 0:
+        texel = sample_bilinear(textures[tmap.image], transformed_uv(tmap, uv), tmap.extension, tmap.closest)
+        texel = texel.astype(np.float64)
+    else:
+        texel = np.ones((len(uv), 4))
+    if tmap.vertex:
+        texel[:, :3] *= color
     factor = np.asarray(tmap.factor, np.float64)
     if tmap.channel >= 0:
-        value = texel[:, tmap.channel].astype(np.float64)
+        value = texel[:, tmap.channel]
         value = value * factor[0] if scalar else value[:, None] * factor
     else:
-        value = texel[:, :3].astype(np.float64) * factor
+        value = texel[:, :3] * factor
         value = luminance(value) if scalar else value
     return (value >= tmap.cutoff).astype(np.float64) if tmap.cutoff >= 0.0 else value
+
+
+def at_points(tmap: TextureMap, scene, prim: np.ndarray, bary: np.ndarray, scalar: bool) -> np.ndarray:
+    """``lookup`` at points given as triangles ``prim`` (K,) and barycentric coordinates (K,3) of ``scene``: their
+    UVs and (for a ``vertex`` map) colour attribute interpolated from the triangles' corners."""
+    color = interpolated(scene.colors[prim], bary) if tmap.vertex else None
+    return lookup(tmap, scene.textures, interpolated(scene.uvs[prim], bary), scalar, color)

@@ -68,6 +68,7 @@ class Snapshot:
                           m.alpha, m.transmission, maps, *m.map_of.values(), np.asarray(scene.world),
                           np.array([scene.max_bounces]), *scene.textures, scene.uvs,
                           *(() if scene.tangents is None else (scene.tangents,)),
+                          *(() if scene.colors is None else (scene.colors,)),
                           *(() if scene.environment is None else (scene.environment.image, scene.environment.rotation)))
         cam = scene.camera
         camera = _digest(np.asarray(cam.to_world, np.float64), np.asarray(cam.window, np.float64),
