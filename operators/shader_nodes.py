@@ -7,6 +7,8 @@ An input's link is followed back through reroutes to an Image Texture, across wh
 - Mix Color (Multiply) or Math (Multiply) with a constant: a factor (glTF's base colour, roughness, metallic
   factors);
 - Normal Map (tangent space) into Normal: the image is a tangent-space normal map of that strength and UV map;
+- Bump into Normal: its Height image is a height map (times Distance), with its Strength, on top of a Normal Map
+  feeding the Bump's Normal;
 - a Color Attribute node (or an Attribute node's Color of a geometry attribute) in place of the image, or multiplied
   with it by a Mix Color (Multiply, factor 1): the mesh's colour attribute (vertex colours, glTF's COLOR_0).
 The image's Vector comes from the default UV map, a UV Map node or Texture Coordinate's UV, through a Mapping node
@@ -28,6 +30,9 @@ from ..vpl_addon.core.scene import Materials, TextureMap
 from ..vpl_addon.materials.microfacet import constant_reflectance_tint
 
 CHANNELS = {"Red": 0, "R": 0, "Green": 1, "G": 1, "Blue": 2, "B": 2}
+# Principled BSDF inputs of layers the engine does not render: any value but 0 is named in a warning
+UNRENDERED_LAYERS = ("Coat Weight", "Sheen Weight", "Subsurface Weight", "Anisotropic", "Thin Film Thickness",
+                     "Diffuse Roughness")
 
 
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
@@ -475,14 +480,45 @@ class MaterialTable:
         for name in ("Specular Tint", "IOR", "Specular IOR Level", "Emission Strength", "Transmission Weight"):
             if _source(inputs[name]) is not None:
                 self.warnings.append(f"material {material.name!r}: linked {name!r} is not supported; using its value")
+        for name in UNRENDERED_LAYERS:
+            value = _constant(inputs[name]) if name in inputs else 0.0
+            if value != 0.0:
+                self.warnings.append(f"material {material.name!r}: {node.bl_label!r} {name} "
+                                     f"{'is linked' if value is None else f'{value:g}'}: not rendered (that layer "
+                                     f"is not supported yet)")
         return row
 
     def _normal(self, material, row: dict, node):
-        """A normal map on ``node``'s Normal input."""
+        """A normal map or a Bump node (and a normal map on the Bump node's Normal) on ``node``'s Normal input."""
+        source = _source(node.inputs["Normal"])
+        if source is not None and source.node.type == "BUMP":
+            node = source.node
+            self._bump(material, row, node)
         if _source(node.inputs["Normal"]) is not None:
             tmap = self._map(material, "Normal", node.inputs["Normal"], normal=True)
             if tmap is not None:
                 row.setdefault("maps", {})["normal"] = tmap
+
+    def _bump(self, material, row: dict, node):
+        """A Bump node's height map, its Distance (negated by Invert) folded into the map's factor and its Strength
+        kept as the map's strength."""
+        strength, distance = _constant(node.inputs["Strength"]), _constant(node.inputs["Distance"])
+        if strength is None or distance is None:
+            self.warnings.append(f"material {material.name!r}: Bump {node.name!r} with a linked Strength or "
+                                 f"Distance is not supported; no bump")
+            return
+        if _source(node.inputs["Height"]) is None:
+            return  # a constant height: a flat bump
+        tmap = self._map(material, "Height", node.inputs["Height"])
+        if tmap is None:
+            return
+        if tmap.image < 0:
+            self.warnings.append(f"material {material.name!r}: Bump {node.name!r} with a colour attribute as its "
+                                 f"Height is not supported; no bump")
+            return
+        scale = -distance if node.invert else distance
+        row.setdefault("maps", {})["bump"] = replace(tmap, factor=tuple(f * scale for f in tmap.factor),
+                                                     strength=float(strength))
 
     def _linked(self, material, row: dict, node, inputs: dict[str, str], scale: float = 1.0):
         """Texture maps for the linked ``inputs`` of ``node`` (socket name -> engine input)."""

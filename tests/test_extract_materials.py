@@ -260,3 +260,48 @@ def test_glossy_mix_and_add_shaders(bpy):
     assert m.alpha[ids["Veil"]] == pytest.approx(0.3) and m.mapped("alpha")[ids["Veil"]] < 0
     assert m.emission[ids["Glow"]] == pytest.approx((4.0, 2.0, 1.0)) and m.base_color[ids["Glow"]] == pytest.approx(0.3)
     assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Blend'", "Mix Shader", "Glossy"))
+
+
+def test_bump_nodes_and_unrendered_layers(bpy):
+    def bumped(nodes, links):  # image -> Bump (inverted) -> Normal, over a Normal Map
+        bsdf, bump = nodes.new("ShaderNodeBsdfPrincipled"), nodes.new("ShaderNodeBump")
+        height, normals, nmap = nodes.new("ShaderNodeTexImage"), nodes.new("ShaderNodeTexImage"), nodes.new(
+            "ShaderNodeNormalMap")
+        height.image, normals.image = _image(bpy, "height", [[0, 0, 0, 1], [1, 1, 1, 1]]), _image(
+            bpy, "normals", [[0.5, 0.5, 1, 1], [0.5, 0.5, 1, 1]])
+        bump.inputs["Distance"].default_value, bump.inputs["Strength"].default_value = 0.2, 0.7
+        bump.invert = True
+        links.new(height.outputs["Color"], bump.inputs["Height"])
+        links.new(normals.outputs["Color"], nmap.inputs["Color"])
+        links.new(nmap.outputs["Normal"], bump.inputs["Normal"])
+        links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+        return bsdf.outputs[0]
+
+    def linked_strength(nodes, links):  # a Bump whose Strength comes from a node: one warning, no bump
+        bsdf, bump, value = nodes.new("ShaderNodeBsdfDiffuse"), nodes.new("ShaderNodeBump"), nodes.new(
+            "ShaderNodeValue")
+        links.new(value.outputs[0], bump.inputs["Strength"])
+        links.new(nodes.new("ShaderNodeTexImage").outputs["Color"], bump.inputs["Height"])
+        links.new(bump.outputs["Normal"], bsdf.inputs["Normal"])
+        return bsdf.outputs[0]
+
+    def coated(nodes, links):
+        bsdf = nodes.new("ShaderNodeBsdfPrincipled")
+        bsdf.inputs["Coat Weight"].default_value = 0.5
+        links.new(nodes.new("ShaderNodeValue").outputs[0], bsdf.inputs["Sheen Weight"])
+        return bsdf.outputs[0]
+
+    for k, (name, build) in enumerate((("Bumped", bumped), ("Linked", linked_strength), ("Coated", coated))):
+        obj = add_mesh(bpy, name, [(0, 0, k), (1, 0, k), (0, 1, k)], [(0, 1, 2)],
+                       material=surface_material(bpy, name, build))
+        obj.data.uv_layers.new(name="UVMap")
+    scene, warnings = extracted(bpy)
+    m = scene.materials
+    i = m.names.index("Bumped")
+    bump = m.maps[m.mapped("bump")[i]]
+    assert bump.factor == pytest.approx((-0.2,) * 3) and bump.strength == pytest.approx(0.7)
+    assert m.mapped("normal")[i] >= 0 and m.mapped("bump")[m.names.index("Linked")] < 0
+    assert warnings == [
+        "material 'Linked': Bump 'Bump' with a linked Strength or Distance is not supported; no bump",
+        "material 'Coated': 'Principled BSDF' Coat Weight 0.5: not rendered (that layer is not supported yet)",
+        "material 'Coated': 'Principled BSDF' Sheen Weight is linked: not rendered (that layer is not supported yet)"]

@@ -95,6 +95,11 @@ def cases():
         yield f"normal map of NaN, zero and backward normals, strength {strength:g}, bad tangents", Scene.build(
             base.triangles, materials(maps={"normal": TextureMap(0, strength=strength)}), base.lights, base.camera,
             material=base.material, uvs=uvs, textures=[wild_normals], tangents=bad_tangents), {}
+    for distance in (1e30, -1e6, 0.0):
+        yield f"bump map of NaN and inf heights, distance {distance:g}, on a normal map", Scene.build(
+            base.triangles, materials(maps={"bump": TextureMap(0, factor=(distance,) * 3, strength=2.0),
+                                            "normal": TextureMap(1)}), base.lights, base.camera,
+            material=base.material, uvs=uvs, textures=[wild_normals * 1e3, wild_normals]), {}
     wild_colours = np.random.default_rng(4).choice([np.nan, np.inf, -np.inf, -3.0, 1e30, 0.5], (12, 3, 3))
     yield "colour attribute of NaN, infinite, negative and huge values on every input", Scene.build(
         base.triangles, materials(maps={name: TextureMap(-1, vertex=True) for name in (

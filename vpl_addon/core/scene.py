@@ -21,7 +21,7 @@ if TYPE_CHECKING:  # an annotation only: the core layer imports nothing above it
     from ..lights import Light
 
 
-INPUTS = ("base_color", "roughness", "metallic", "emission", "alpha", "normal")  # inputs an image can drive
+INPUTS = ("base_color", "roughness", "metallic", "emission", "alpha", "normal", "bump")  # inputs an image can drive
 
 
 @dataclass(frozen=True)
@@ -31,7 +31,9 @@ class TextureMap:
 
     The value at a UV is ``factor`` x the image's colour (``channel`` -1), one channel (0-2: R, G, B as a Separate
     Color node gives them, 3: the image's alpha) or, for a colour feeding a scalar input, its luminance. For the
-    ``normal`` input the colour is a tangent-space normal (Normal Map node) and ``strength`` its Strength. A
+    ``normal`` input the colour is a tangent-space normal (Normal Map node) and ``strength`` its Strength; for
+    ``bump`` the value is a height (a Bump node's Height times its Distance, negative when inverted) and
+    ``strength`` the node's Strength. A
     ``cutoff`` (alpha clip, as the glTF importer builds it for a MASK material: 1 - (value < cutoff)) makes the value
     1 where it reaches the cutoff and 0 below. With ``vertex`` the colour is multiplied by the mesh's colour
     attribute (Blender's Color Attribute node, ``Scene.colors``); ``image`` -1 then reads that colour alone."""

@@ -4,8 +4,9 @@ The one place that turns embree hits into shading data; the G-buffer, light path
 Surfaces are two-sided (as in Cycles): both normals are flipped to face the incoming ray. Material inputs driven by
 image textures (``textures``) are looked up here, the Normal input through a tangent-space normal map as Cycles'
 Normal Map node applies it: N' = normalize(x T + y B + z N) with (x, y, z) = 2 colour - 1 and B = sign N x T, then
-N + (N' - N) strength, normalised. Where that bends the normal, the diffuse lobe's light from a direction w is
-scaled by Cycles' bump shadowing term (``bump_shadowing``), which darkens the light that grazes the true surface.
+N + (N' - N) strength, normalised; a Bump node's height map bends it further (``_bumped``). Where that bends the
+normal, the diffuse lobe's light from a direction w is scaled by Cycles' bump shadowing term (``bump_shadowing``),
+which darkens the light that grazes the true surface.
 
 The Principled BSDF's layers as Cycles stacks them (``svm/closure.h``): the metallic lobe weighs ``metallic``,
 everything below it 1 - metallic; the dielectric specular layer (``microfacet``) sits on the diffuse lobe, which
@@ -19,7 +20,7 @@ import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
-from .textures import at_points
+from .textures import at_points, lookup
 
 
 @dataclass
@@ -105,7 +106,8 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
            "metallic": m.metallic[mat].astype(np.float64), "emission": m.emission[mat].astype(np.float64),
            "normal": ns}
     linked = {name: m.mapped(name)[mat] for name in out}
-    if not any((ids >= 0).any() for ids in linked.values()):
+    bump = m.mapped("bump")[mat]
+    if not any((ids >= 0).any() for ids in (bump, *linked.values())):
         return out
     out["normal"] = ns.copy()  # the caller's normals stay as they were; the other inputs are fresh copies
     for name, ids in linked.items():
@@ -116,6 +118,9 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
                 out[name][sel] = _normal_mapped(scene, tmap, prim[sel], bary[sel], ns[sel])
             else:
                 out[name][sel] = at_points(tmap, scene, prim[sel], bary[sel], scalar=name in ("roughness", "metallic"))
+    for t in np.unique(bump[bump >= 0]):  # on the normal map's normal, as a Bump node fed by a Normal Map
+        sel = np.nonzero(bump == t)[0]
+        out["normal"][sel] = _bumped(scene, m.maps[t], prim[sel], bary[sel], out["normal"][sel])
     out["roughness"] = np.clip(out["roughness"], 0.0, 1.0)
     out["metallic"] = np.clip(out["metallic"], 0.0, 1.0)
     out["emission"] = np.maximum(out["emission"], 0.0)
@@ -135,6 +140,39 @@ def _normal_mapped(scene, tmap, prim, bary, ns) -> np.ndarray:
         mapped = ns + (mapped - ns) * max(tmap.strength, 0.0)
     length = np.linalg.norm(mapped, axis=1, keepdims=True)
     return np.where(length > 1e-12, mapped / np.maximum(length, 1e-300), ns)
+
+
+def _bumped(scene, tmap, prim, bary, ns) -> np.ndarray:
+    """Cycles' Bump node (``svm_node_set_bump``) at points with unflipped normals ``ns``: normalize(N - grad h),
+    then mixed with N by its Strength, h the height map (Distance folded into its factor). Cycles takes grad h
+    from the height at the shading point and at points a fraction of a pixel away (surfgrad / det, which tends to
+    the surface gradient); here it is the gradient itself: central differences of the bilinear height a quarter
+    texel apart in UV, carried onto the triangle by the gradients of its UVs."""
+    tri = scene.triangles[prim].astype(np.float64)
+    e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+    c = np.cross(e1, e2)
+    area2 = dot(c, c)[:, None]
+    ok = area2[:, 0] > 1e-30
+    ga = np.where(ok[:, None], np.cross(e2, c) / np.maximum(area2, 1e-300), 0.0)  # gradients of the barycentrics
+    gb = np.where(ok[:, None], np.cross(c, e1) / np.maximum(area2, 1e-300), 0.0)
+    corners = scene.uvs[prim].astype(np.float64)
+    d1, d2 = corners[:, 1] - corners[:, 0], corners[:, 2] - corners[:, 0]
+    uv = interpolated(corners, bary)
+    a, b, _, d, e, _ = tmap.uv
+    image = scene.textures[tmap.image]
+    step = 0.25 / (max(image.shape[:2]) * max(abs(a), abs(b), abs(d), abs(e), 1e-12))
+    gradient = np.zeros_like(ns)
+    for axis, along in ((0, d1[:, :1] * ga + d2[:, :1] * gb), (1, d1[:, 1:] * ga + d2[:, 1:] * gb)):
+        offset = np.zeros(2)
+        offset[axis] = step
+        slope = (lookup(tmap, scene.textures, uv + offset, True) - lookup(tmap, scene.textures, uv - offset, True))
+        gradient += (slope / (2.0 * step))[:, None] * along
+    bumped = normalize(ns - np.nan_to_num(gradient, nan=0.0, posinf=0.0, neginf=0.0))
+    strength = max(tmap.strength, 0.0)
+    if strength != 1.0:
+        bumped = normalize(strength * bumped + (1.0 - strength) * ns)
+    return np.where(np.isfinite(bumped).all(axis=1, keepdims=True) & (dot(bumped, bumped) > 0.5)[:, None],
+                    bumped, ns)
 
 
 def bump_shadowing(smooth: np.ndarray, ns: np.ndarray, w: np.ndarray) -> np.ndarray:
