@@ -14,6 +14,7 @@ from ..vpl_addon.core.camera import Camera, view_window
 from ..vpl_addon.core.scene import Environment, Scene
 from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
 from .shader_nodes import MaterialTable, image_pixels
+from .world_bake import BakeError, baked_world
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
 
@@ -198,7 +199,8 @@ def _broken_light(obj, matrix, light) -> str | None:
 
 
 def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
-    """(constant radiance, environment map or None) of the scene's world."""
+    """(constant radiance, environment map or None) of the scene's world: a Background's constant colour or
+    equirectangular Environment Texture read directly, any other tree as Cycles renders it (``world_bake``)."""
     world = scene.world
     if world is None:
         return np.zeros(3), None
@@ -211,30 +213,37 @@ def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
         return np.zeros(3), None
     node = active[0].inputs["Surface"].links[0].from_node
     if node.type != "BACKGROUND":
-        warnings.append(f"world {world.name!r}: surface {node.bl_label!r} is not supported; world is black")
-        return np.zeros(3), None
+        return _baked(scene, world, warnings)
     color, strength = node.inputs["Color"], node.inputs["Strength"]
     constant = np.array(color.default_value[:3], np.float64) * strength.default_value
     if strength.is_linked:
-        warnings.append(f"world {world.name!r}: a linked Strength is not supported; using the constant colour")
-        return constant, None
+        return _baked(scene, world, warnings)
     if not color.is_linked:
         return constant, None
     source = color.links[0].from_node
-    if source.type != "TEX_ENVIRONMENT" or source.projection != "EQUIRECTANGULAR":
-        warnings.append(f"world {world.name!r}: Background Color from {source.bl_label!r} is not supported (only "
-                        f"an equirectangular Environment Texture); using the constant colour")
-        return constant, None
-    rgb = None if source.image is None else image_pixels(source.image)
+    if source.type != "TEX_ENVIRONMENT" or source.projection != "EQUIRECTANGULAR" or source.image is None:
+        return _baked(scene, world, warnings)
+    rgb = image_pixels(source.image)
     if rgb is None:
-        name = "no image" if source.image is None else f"image {source.image.name!r} could not be loaded " \
-            f"({source.image.filepath or 'no file'})"
-        warnings.append(f"world {world.name!r}: Environment Texture {source.name!r} has {name}; using the constant "
-                        f"colour")
+        warnings.append(f"world {world.name!r}: Environment Texture {source.name!r} has image "
+                        f"{source.image.name!r} that could not be loaded ({source.image.filepath or 'no file'}); "
+                        f"using the constant colour")
         return constant, None
     rotation = _environment_rotation(world, source, warnings)
     environment = Environment.checked(rgb * strength.default_value, rotation)
     return (constant if environment is None else np.zeros(3)), environment
+
+
+def _baked(scene, world, warnings):
+    """(no constant, the map Cycles bakes of ``world`` at the scene's frame) for ``_world``; a black world with a
+    warning when Cycles cannot bake it."""
+    try:
+        image = baked_world(world, scene.frame_current)
+    except BakeError as err:
+        warnings.append(f"world {world.name!r}: its node tree is read by letting Cycles render it, which failed "
+                        f"({err}); the world is black")
+        return np.zeros(3), None
+    return np.zeros(3), Environment.checked(image)
 
 
 def _environment_rotation(world, texture, warnings) -> np.ndarray:
