@@ -1,7 +1,8 @@
 """The "VPL GI" RenderEngine: F12, ``blender -b ... -f N`` and the CLI all render through it.
 
-Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color
-and Emission when enabled), so Blender writes them into multilayer EXRs and the compositor sees them by name.
+Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color,
+Glossy Direct / Indirect / Color, Emission and Environment when enabled), so Blender writes them into multilayer EXRs
+and the compositor sees them by name. *Film > Transparent* decides whether Combined shows the world, as in Cycles.
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ PASS_TOGGLES = (
     (P.GLOSSY_DIRECT, "use_pass_glossy_direct", 3, "RGB"),
     (P.GLOSSY_INDIRECT, "use_pass_glossy_indirect", 3, "RGB"),
     (P.GLOSSY_COLOR, "use_pass_glossy_color", 3, "RGB"),
+    (P.ENVIRONMENT, "use_pass_environment", 3, "RGB"),
 )
 
 # Messages of the last render, for callers that cannot see the UI (the command line, tests).

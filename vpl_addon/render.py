@@ -11,7 +11,8 @@ The light passes are, as in Cycles, divided by their colour: the sum over a pixe
 over the sum of colour (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, ``Glossy Direct`` /
 ``Glossy Indirect`` by ``Glossy Color``), so a pixel half wall and half background or metal holds the wall's light,
 not half of it, and ``light pass x colour pass`` is the pixel's share of ``Combined``. The diffuse passes are zero
-where no sample has a diffuse colour (pure metal, as in Cycles).
+where no sample has a diffuse colour (pure metal, as in Cycles). Camera rays that miss see the world
+(``Environment``), which ``Combined`` shows unless the film is transparent (``core.passes``).
 """
 from __future__ import annotations
 
@@ -55,6 +56,9 @@ class RenderSettings:
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)
     max_bounces: int | None = None  # None: the scene's bounce limit
+    # Film > Transparent: on, the background is 0 in Combined and alpha the coverage (the references' film); off
+    # (Blender's default), Combined shows the world where camera rays miss, with alpha 1
+    film_transparent: bool = True
     block_pixels: int = 4096
 
     def __post_init__(self):
@@ -119,6 +123,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     need_glossy = scene.materials.glossy and bool((set(P.GLOSSY) | {P.COMBINED}) & want)
     need_direct = bool({P.DIFFUSE_DIRECT, P.GLOSSY_DIRECT, P.COMBINED} & want) and len(lights) > 0
     bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
+    need_background = lights.world is not None and (P.ENVIRONMENT in want or not settings.film_transparent)
     need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
         settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
     vpls, d_min, permutation, context = None, 0.0, None, None
@@ -236,7 +241,14 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
             images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission)
-            images[P.COMBINED][pixels, 3] = gbuf.coverage
+            images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
+            if need_background:
+                background = gbuf.background(lights.world)
+                guard("G-buffer", {P.ENVIRONMENT: background})
+                if not settings.film_transparent:
+                    images[P.COMBINED][pixels, :3] += background
+                if P.ENVIRONMENT in want:
+                    images[P.ENVIRONMENT][pixels] = background
             images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo)
             if P.DIFFUSE_DIRECT in want:
                 images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct),
