@@ -102,13 +102,23 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info)
-        self._write(built.camera.width, built.camera.height, view_layer.name, result.passes)
+        self._write(view_layer.name, result.passes)
 
-    def _write(self, width, height, layer_name, images):
+    def _write(self, layer_name, images):
+        """Hand the images to Blender. With a render border Blender's result is the border's size, cropped or not
+        (without crop Blender puts it back into the full frame itself, as it does with Cycles' result), so the
+        images, which are the border's pixels, fill it from (0, 0)."""
+        height, width = images[P.COMBINED].shape[:2]
         for name in images:
             if name != P.COMBINED:
                 self.add_pass(name, P.CHANNELS[name], "RGBA"[:P.CHANNELS[name]], layer=layer_name)
         out = self.begin_result(0, 0, width, height, layer=layer_name)
+        if (out.resolution_x, out.resolution_y) != (width, height):  # never a silent misfit: name the setting
+            self.end_result(out, cancel=True)
+            self._report("ERROR", f"the render result is {out.resolution_x}x{out.resolution_y} pixels but the "
+                                  f"engine rendered {width}x{height} (resolution and render border settings); "
+                                  f"please report")
+            return
         layer = out.layers[0]
         for name, image in images.items():
             render_pass = layer.passes.find_by_name(name, "")
