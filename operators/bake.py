@@ -11,7 +11,8 @@ range that starts cold, with no saved state before it, warms the state up first 
 one range can be rendered on different machines.
 
 ``bake.json`` in the folder records the settings; a folder that holds a bake of other settings is refused unless
-``overwrite`` is given, so nothing the user had is replaced without asking.
+``overwrite`` is given, so nothing the user had is replaced without asking. Finished, stopped or failed, a bake leaves
+the scene's output path and image format (``output.render_to``), stamps and current frame as the user had them.
 """
 from __future__ import annotations
 

@@ -1,7 +1,8 @@
 """The "VPL GI" RenderEngine: F12, ``blender -b ... -f N`` and the CLI all render through it.
 
-Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color
-and Emission when enabled), so Blender writes them into multilayer EXRs and the compositor sees them by name.
+Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color,
+Glossy Direct / Indirect / Color, Emission and Environment when enabled), so Blender writes them into multilayer EXRs
+and the compositor sees them by name. *Film > Transparent* decides whether Combined shows the world, as in Cycles.
 """
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ PASS_TOGGLES = (
     (P.GLOSSY_DIRECT, "use_pass_glossy_direct", 3, "RGB"),
     (P.GLOSSY_INDIRECT, "use_pass_glossy_indirect", 3, "RGB"),
     (P.GLOSSY_COLOR, "use_pass_glossy_color", 3, "RGB"),
+    (P.ENVIRONMENT, "use_pass_environment", 3, "RGB"),
 )
 
 # Messages of the last render, for callers that cannot see the UI (the command line, tests).
@@ -100,13 +102,23 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info)
-        self._write(built.camera.width, built.camera.height, view_layer.name, result.passes)
+        self._write(view_layer.name, result.passes)
 
-    def _write(self, width, height, layer_name, images):
+    def _write(self, layer_name, images):
+        """Hand the images to Blender. With a render border Blender's result is the border's size, cropped or not
+        (without crop Blender puts it back into the full frame itself, as it does with Cycles' result), so the
+        images, which are the border's pixels, fill it from (0, 0)."""
+        height, width = images[P.COMBINED].shape[:2]
         for name in images:
             if name != P.COMBINED:
                 self.add_pass(name, P.CHANNELS[name], "RGBA"[:P.CHANNELS[name]], layer=layer_name)
         out = self.begin_result(0, 0, width, height, layer=layer_name)
+        if (out.resolution_x, out.resolution_y) != (width, height):  # never a silent misfit: name the setting
+            self.end_result(out, cancel=True)
+            self._report("ERROR", f"the render result is {out.resolution_x}x{out.resolution_y} pixels but the "
+                                  f"engine rendered {width}x{height} (resolution and render border settings); "
+                                  f"please report")
+            return
         layer = out.layers[0]
         for name, image in images.items():
             render_pass = layer.passes.find_by_name(name, "")

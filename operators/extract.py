@@ -76,7 +76,7 @@ def _uv_layer(mesh, name: str | None):
     layers = mesh.uv_layers
     if name is not None and name in layers:
         return layers[name]
-    return next((l for l in layers if l.active_render), layers.active)
+    return next((layer for layer in layers if layer.active_render), layers.active)
 
 
 def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warnings) -> np.ndarray:
@@ -271,6 +271,22 @@ def _environment_rotation(world, texture, warnings) -> np.ndarray:
     return rotation.T if mapping.vector_type == "TEXTURE" else rotation  # Texture maps by the inverse
 
 
+def render_border(render, width: int, height: int) -> tuple[int, int, int, int] | None:
+    """(x, y, width, height) of the pixels a render border keeps, y from the top, or None without one. Blender
+    (``render_init_from_main``) scales the border's float32 corners by the frame's size and truncates them, y from
+    the bottom; a border that spans the whole frame is no border."""
+    if not render.use_border:
+        return None
+    corners = np.float32([render.border_min_x, render.border_max_x, render.border_min_y, render.border_max_y])
+    if (corners == np.float32([0.0, 1.0, 0.0, 1.0])).all():
+        return None
+    x0, x1, y0, y1 = (int(c) for c in corners * np.float32([width, width, height, height]))
+    if x1 <= x0 or y1 <= y0:
+        raise ExtractionError(f"scene {render.id_data.name!r}: the render border (Output > Format > Render Region) "
+                              f"is less than a pixel wide or high")
+    return x0, height - y1, x1 - x0, y1 - y0
+
+
 def camera_of(scene, depsgraph=None) -> Camera:
     """The camera of ``scene`` as ``depsgraph`` evaluates it (its animated transform and lens: in an animation
     render the original object stays where it was), or as stored without one."""
@@ -298,7 +314,7 @@ def camera_of(scene, depsgraph=None) -> Camera:
     return Camera(matrix, width, height, window, orthographic=cam.type == "ORTHO",
                   clip_start=cam.clip_start, clip_end=cam.clip_end,
                   filter_type=getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"),
-                  filter_width=getattr(cycles, "filter_width", r.filter_size))
+                  filter_width=getattr(cycles, "filter_width", r.filter_size), region=render_border(r, width, height))
 
 
 def extract(depsgraph) -> tuple[Scene, list[str]]:

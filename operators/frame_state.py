@@ -23,7 +23,10 @@ def settings_key(scene) -> dict:
     values = {p.identifier: getattr(props, p.identifier) for p in props.bl_rna.properties
               if p.identifier not in {"rna_type", "name", "bake_directory", "bake_overwrite"}}
     r = scene.render
-    values.update(resolution=[r.resolution_x, r.resolution_y, r.resolution_percentage])
+    values.update(resolution=[r.resolution_x, r.resolution_y, r.resolution_percentage],
+                  film_transparent=r.film_transparent,
+                  border=[r.use_border, r.use_crop_to_border, r.border_min_x, r.border_max_x, r.border_min_y,
+                          r.border_max_y] if r.use_border else None)
     return values
 
 

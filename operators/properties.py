@@ -97,6 +97,7 @@ class VPLGISettings(bpy.types.PropertyGroup):
 
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
+                              film_transparent=self.id_data.render.film_transparent,
                               method=self.method, indirect_samples=self.indirect_samples,
                               placement=MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse,
                                                          path_threshold=self.path_threshold, smc=replace(

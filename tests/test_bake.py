@@ -7,6 +7,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 
 from conftest import EXAMPLES, ROOT, run_cli
 
@@ -22,9 +23,9 @@ def test_a_static_bake_traces_light_paths_in_frame_one_only_and_resumes_by_skipp
     code, stdout, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:3", "-o", out,
                                    "--method", "bidir", *SMALL)
     assert code == 0, stderr
-    lines = [l for l in stdout.splitlines() if l.startswith("frame ")]
+    lines = [line for line in stdout.splitlines() if line.startswith("frame ")]
     assert len(lines) == 3 and " 0 light paths" not in lines[0]
-    assert all(" 0 light paths (reused)" in l for l in lines[1:])
+    assert all(" 0 light paths (reused)" in line for line in lines[1:])
     assert frames_in(out) == ["frame_0001.exr", "frame_0002.exr", "frame_0003.exr"]
     assert not list(out.glob(".partial-*"))
     from vpl_addon.core.exr import read_passes
@@ -170,5 +171,60 @@ def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path
         report = bake.Bake(scene, folder, range(1, 4)).run()
         assert report.resumed_from == 1 and report.rendered == [2, 3]
         for name in frames_in(tmp_path / f"{method}_whole"):
-            assert (tmp_path / f"{method}_whole" / name).read_bytes() == (tmp_path / f"{method}_resumed" /
-                                                                         name).read_bytes(), (method, name)
+            whole, resumed = (tmp_path / f"{method}_{run}" / name for run in ("whole", "resumed"))
+            assert whole.read_bytes() == resumed.read_bytes(), (method, name)
+
+
+def _output_settings(scene) -> dict:
+    """What a bake may touch of the user's scene: the output path, file extension, stamps, current frame and every
+    setting of the image format (its colour spaces too)."""
+    def values(struct, prefix=""):
+        found = {}
+        for prop in struct.bl_rna.properties:
+            value = getattr(struct, prop.identifier)
+            if prop.type == "POINTER" and value is not None and prop.identifier != "rna_type":
+                found.update(values(value, f"{prefix}{prop.identifier}."))
+            elif prop.type not in {"POINTER", "COLLECTION"}:
+                found[prefix + prop.identifier] = value[:] if getattr(prop, "is_array", False) else value
+        return found
+    r = scene.render
+    kept = {name: getattr(r, name) for name in ("filepath", "use_file_extension", "use_stamp_date",
+                                                "use_stamp_render_time")}
+    return {**kept, "frame_current": scene.frame_current, **values(r.image_settings, "image_settings.")}
+
+
+def test_the_bake_operator_leaves_the_scenes_output_settings_as_they_were(ext, tmp_path):
+    """Finished, stopped (ESC: the bake's steps closed after a frame) or failed in its second frame (a timeline
+    marker switches to a panoramic camera, which the engine refuses), the bake leaves the output path, the image
+    format (file format, colour depth, EXR codec, colour space), the stamps and the current frame as the user had
+    them: it renders each frame to its own file with settings of its own."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    scene = _small_scene(bpy, engine, "seq_moving_light")
+    scene.frame_start, scene.frame_end = 3, 4
+    scene.frame_set(7)
+    r = scene.render
+    r.filepath, r.use_file_extension, r.use_stamp_date, r.use_stamp_render_time = "//renders/shot_", False, True, True
+    image = r.image_settings
+    image.media_type, image.file_format = "IMAGE", "OPEN_EXR"
+    image.color_depth, image.exr_codec, image.linear_colorspace_settings.name = "16", "DWAA", "ACEScg"
+    before = _output_settings(scene)
+
+    scene.vpl_gi.bake_directory = str(tmp_path / "finished")
+    assert bpy.ops.vpl_gi.bake_sequence() == {"FINISHED"}
+    assert frames_in(tmp_path / "finished") == ["frame_0003.exr", "frame_0004.exr"]
+    assert _output_settings(scene) == before
+
+    report = bake.Bake(scene, str(tmp_path / "stopped"), range(3, 5)).run(progress=lambda fraction, text: False)
+    assert report.rendered == [3] and _output_settings(scene) == before
+
+    pano = bpy.data.objects.new("Pano", bpy.data.cameras.new("Pano"))
+    pano.data.type = "PANO"
+    scene.collection.objects.link(pano)
+    scene.timeline_markers.new("shot", frame=1).camera = scene.camera
+    scene.timeline_markers.new("pano", frame=4).camera = pano
+    scene.vpl_gi.bake_directory = str(tmp_path / "failed")
+    with pytest.raises(RuntimeError, match="camera 'Pano'"):
+        bpy.ops.vpl_gi.bake_sequence()
+    assert frames_in(tmp_path / "failed") == ["frame_0003.exr"]
+    assert _output_settings(scene) == before

@@ -1,9 +1,12 @@
 """The pipeline of one frame: Scene -> Tracer -> (method places VPLs) -> G-buffer blocks -> direct light and the
 gather -> filter -> passes.
 
-Pixels are processed in blocks, concurrently on all cores, so memory stays flat at any resolution and sample
-count; each block draws its random numbers from ``(seed, block)`` so a render is deterministic. ``progress(fraction,
-text)`` is called after each block and may return False to cancel (ESC in Blender), which raises ``Cancelled``.
+A camera with a ``region`` (Blender's render border) renders that rectangle of the frame only, plus the pixels
+the filter reads around it; the passes are the region's size. Pixels are processed in blocks, concurrently on all
+cores, so memory stays flat at any resolution and sample count; each block draws its random numbers from ``(seed,
+block)`` so a render is deterministic (a border's blocks are not the frame's: its pixels are the frame's up to
+noise). ``progress(fraction, text)`` is called after each block and may return False to cancel (ESC in Blender),
+which raises ``Cancelled``.
 Work a pass does not need is skipped: no lights, no shadow rays and no VPLs; no ``Diffuse Indirect`` requested (or
 method "none"), no VPLs; no metallic material, nothing glossy.
 
@@ -11,7 +14,8 @@ The light passes are, as in Cycles, divided by their colour: the sum over a pixe
 over the sum of colour (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, ``Glossy Direct`` /
 ``Glossy Indirect`` by ``Glossy Color``), so a pixel half wall and half background or metal holds the wall's light,
 not half of it, and ``light pass x colour pass`` is the pixel's share of ``Combined``. The diffuse passes are zero
-where no sample has a diffuse colour (pure metal, as in Cycles).
+where no sample has a diffuse colour (pure metal, as in Cycles). Camera rays that miss see the world
+(``Environment``), which ``Combined`` shows unless the film is transparent (``core.passes``).
 """
 from __future__ import annotations
 
@@ -55,6 +59,9 @@ class RenderSettings:
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)
     max_bounces: int | None = None  # None: the scene's bounce limit
+    # Film > Transparent: on, the background is 0 in Combined and alpha the coverage (the references' film); off
+    # (Blender's default), Combined shows the world where camera rays miss, with alpha 1
+    film_transparent: bool = True
     block_pixels: int = 4096
 
     def __post_init__(self):
@@ -99,8 +106,6 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
            sequence=None) -> RenderResult:
     """One frame; ``sequence`` (a ``sequence.state.SequenceState``) carries the method's state from the previous
     frame."""
-    cam = scene.camera
-    w, h = cam.width, cam.height
     result = RenderResult(passes={})
 
     def guard(stage, arrays):  # a bad value fails the render naming the method and the stage that made it
@@ -119,8 +124,13 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     need_glossy = scene.materials.glossy and bool((set(P.GLOSSY) | {P.COMBINED}) & want)
     need_direct = bool({P.DIFFUSE_DIRECT, P.GLOSSY_DIRECT, P.COMBINED} & want) and len(lights) > 0
     bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
+    need_background = lights.world is not None and (P.ENVIRONMENT in want or not settings.film_transparent)
     need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
         settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
+    filtering = need_indirect and settings.gather.filter and settings.gather.interleave > 1
+    # a render border: its pixels only, and the filter's reach around it, so that it filters them as in the frame
+    cam = scene.camera.around(settings.gather.interleave if filtering else 0)
+    _, _, w, h = cam.pixel_region
     vpls, d_min, permutation, context = None, 0.0, None, None
     sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
     try:
@@ -164,7 +174,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             """The VPLs' light at camera points (white Lambertian, or the metallic lobe ``glossy``): the interleaved
             gather, each point with its pixel's VPL subset, plus the light that comes over metal
             (``paths.over_metal``); a metallic lobe sees VPLs only over its paths."""
-            xy = np.stack([pixel % w, pixel // w], 1)
+            xy = np.stack([pixel % cam.width, pixel // cam.width], 1)  # the frame's tiles, border or not
 
             def vpl_light(ends, owner):
                 return gather(ends, xy[owner], vpls, tracer, settings.gather, d_min, permutation)
@@ -178,7 +188,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             pixels = np.arange(starts[number], min(starts[number] + settings.block_pixels, w * h))
             rng = np.random.default_rng([settings.seed, number])
             marks = {"start": time.perf_counter()}
-            gbuf = GBuffer.build(scene, tracer, pixels, settings.samples, rng)
+            gbuf = GBuffer.build(scene, tracer, cam.frame_pixels(pixels), settings.samples, rng)
             surf = gbuf.surface
             guard("G-buffer", {P.DIFFUSE_COLOR: surf.albedo, P.EMIT: surf.emission})
             lobe = GlossyLobe.of(surf) if need_glossy else None
@@ -236,7 +246,14 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
             images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission)
-            images[P.COMBINED][pixels, 3] = gbuf.coverage
+            images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
+            if need_background:
+                background = gbuf.background(lights.world)
+                guard("G-buffer", {P.ENVIRONMENT: background})
+                if not settings.film_transparent:
+                    images[P.COMBINED][pixels, :3] += background
+                if P.ENVIRONMENT in want:
+                    images[P.ENVIRONMENT][pixels] = background
             images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo)
             if P.DIFFUSE_DIRECT in want:
                 images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct),
@@ -296,7 +313,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         images[P.DIFFUSE_INDIRECT] = indirect if glazed is None else indirect + glazed
     result.seconds.update(timing)
     result.rays = tracer.rays_traced
-    result.passes = {name: images[name].reshape(h, w, -1).astype(np.float32) for name in want
+    (x, y, _, _), (bx, by, bw, bh) = cam.pixel_region, scene.camera.pixel_region
+    border = (slice(by - y, by - y + bh), slice(bx - x, bx - x + bw))  # the filter's margin off
+    result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}
     guard("output", result.passes)
     return result

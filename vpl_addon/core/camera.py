@@ -4,13 +4,16 @@ View plane (Blender ``BKE_camera_params_compute_viewplane``): the sensor dimensi
 the image along that axis; AUTO fits the sensor width to the larger image dimension; shift is a fraction of the
 fitted extent. Pixel (i, j), i from the left and j from the TOP, covers [i, i+1] x [j, j+1] of the plane.
 
+Render border (Cycles with *Render Region*): ``region`` is the rectangle of pixels that is rendered, on the full
+frame's view plane, so a pixel of the region sees what the same pixel of the whole frame sees.
+
 Pixel filter (Cycles ``scene/film.cpp``): samples are importance-sampled from the filter, each weighing 1.
 Box is always one pixel wide whatever the width (measured), Blackman-Harris spans [-w, w] (Cycles evaluates it at
 twice the width), Gaussian exp(-8 u^2 / w^2) is tabulated over [-1.5w, 1.5w].
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -69,6 +72,8 @@ class Camera:
     clip_end: float = 1e30
     filter_type: str = "BLACKMAN_HARRIS"
     filter_width: float = 1.5
+    # (x, y, width, height) of the pixels rendered, x from the left and y from the top of the frame; None: all
+    region: tuple[int, int, int, int] | None = None
 
     def __post_init__(self):
         m = np.asarray(self.to_world, np.float64).reshape(4, 4).copy()
@@ -76,6 +81,34 @@ class Camera:
             m[:3, axis] = normalize(m[:3, axis])
         self.to_world = m
         self.width, self.height = int(self.width), int(self.height)
+        if self.region is not None:
+            x, y, w, h = (int(v) for v in self.region)
+            if w < 1 or h < 1 or x < 0 or y < 0 or x + w > self.width or y + h > self.height:
+                raise ValueError(f"the region {w}x{h} at ({x}, {y}) is not a rectangle of pixels within the "
+                                 f"{self.width}x{self.height} frame")
+            self.region = (x, y, w, h)
+
+    @property
+    def pixel_region(self) -> tuple[int, int, int, int]:
+        """(x, y, width, height) of the pixels rendered: the region, or the whole frame."""
+        return self.region if self.region is not None else (0, 0, self.width, self.height)
+
+    def around(self, margin: int) -> "Camera":
+        """This camera with its region grown by ``margin`` pixels on every side within the frame: the pixels that a
+        filter reading ``margin`` pixels away needs to filter the region as it filters the whole frame."""
+        if self.region is None or margin <= 0:
+            return self
+        x, y, w, h = self.region
+        x0, y0 = max(0, x - margin), max(0, y - margin)
+        x1, y1 = min(self.width, x + w + margin), min(self.height, y + h + margin)
+        return replace(self, region=(x0, y0, x1 - x0, y1 - y0))
+
+    def frame_pixels(self, local: np.ndarray) -> np.ndarray:
+        """Flat indices in the whole frame (row-major, row 0 at the top) of the region's pixels ``local`` (flat
+        indices in the region, row-major)."""
+        x, y, w, _ = self.pixel_region
+        local = np.asarray(local, np.int64)
+        return (y + local // w) * self.width + x + local % w
 
     @property
     def position(self) -> np.ndarray:

@@ -7,7 +7,11 @@ wall's light); ``Diffuse Color``: the albedo; ``Emit``: emitted radiance; ``Comb
 geometry coverage of a transparent film. ``(Diffuse Direct + Diffuse Indirect) * Diffuse Color + Emit`` is the
 diffuse part of ``Combined``. ``Glossy Direct`` / ``Glossy Indirect``: light reflected by the glossy (metallic GGX)
 lobe at the primary hit divided by ``Glossy Color``, the lobe's directional albedo as Cycles estimates it, so
-``(Glossy Direct + Glossy Indirect) * Glossy Color`` is the glossy part of ``Combined``.
+``(Glossy Direct + Glossy Indirect) * Glossy Color`` is the glossy part of ``Combined``. ``Environment``: the
+world's radiance that camera rays which miss every surface see, times the share of the pixel's samples that miss
+(Cycles' background pass, written whether the film is transparent or not). ``Combined`` holds it too, with alpha 1,
+unless *Film > Transparent* is on: then its background is 0 and alpha the coverage, as in Cycles. So ``Combined`` is
+the sum of the diffuse, glossy and emission parts, plus ``Environment`` when the film is not transparent.
 """
 from __future__ import annotations
 
@@ -21,9 +25,10 @@ EMIT = "Emit"
 GLOSSY_DIRECT = "Glossy Direct"
 GLOSSY_INDIRECT = "Glossy Indirect"
 GLOSSY_COLOR = "Glossy Color"
+ENVIRONMENT = "Environment"
 
 CHANNELS = {COMBINED: 4, DIFFUSE_DIRECT: 3, DIFFUSE_INDIRECT: 3, DIFFUSE_COLOR: 3, EMIT: 3,
-            GLOSSY_DIRECT: 3, GLOSSY_INDIRECT: 3, GLOSSY_COLOR: 3}
+            GLOSSY_DIRECT: 3, GLOSSY_INDIRECT: 3, GLOSSY_COLOR: 3, ENVIRONMENT: 3}
 GLOSSY = (GLOSSY_DIRECT, GLOSSY_INDIRECT, GLOSSY_COLOR)
 ALL = tuple(CHANNELS)
 

@@ -1,8 +1,10 @@
 """The G-buffer: what the camera sees at several filter-distributed samples per pixel.
 
 For a block of pixels it traces ``spp`` primary rays per pixel (stratified sub-pixel positions warped by the pixel
-filter, see ``core.camera``) and keeps the ``Surface`` of the samples that hit. Passes are formed by ``splat``: the
-mean over a pixel's samples, misses counting as zero, exactly like Cycles' film with a transparent background.
+filter, see ``core.camera``) and keeps the ``Surface`` of the samples that hit, and the directions of those that miss.
+Passes are formed by ``splat``: the mean over a pixel's samples, misses counting as zero, exactly like Cycles' film
+with a transparent background; ``background`` is the other share of the pixel, what its missing samples see of the
+world (Cycles' Environment pass).
 """
 from __future__ import annotations
 
@@ -20,6 +22,8 @@ class GBuffer:
     spp: int
     sample: np.ndarray  # (K,) index of each hit among the P*spp samples (sample // spp = position in pixels)
     surface: Surface  # (K,) what each hit sees
+    missed: np.ndarray  # (M,) index of each miss among the P*spp samples
+    miss_direction: np.ndarray  # (M,3) the direction of each miss's camera ray
 
     @staticmethod
     def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
@@ -33,7 +37,9 @@ class GBuffer:
         origins = origins + dirs * near[:, None]
         hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
         sample = np.nonzero(hits.hit)[0]
-        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample))
+        missed = np.nonzero(~hits.hit)[0]
+        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
+                       missed=missed, miss_direction=dirs[missed])
 
     def __len__(self):
         return len(self.sample)
@@ -46,6 +52,15 @@ class GBuffer:
     def splat(self, values: np.ndarray) -> np.ndarray:
         """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film."""
         return group_sum(self.sample // self.spp, np.asarray(values, np.float64), len(self.pixels)) / self.spp
+
+    def background(self, world) -> np.ndarray:
+        """(P,3) per-pixel mean of the radiance ``world`` (a light with ``radiance(w)``, or None for a black world)
+        sends along the camera rays that miss, hits counting as zero: a pixel on an edge gets the background with
+        the weight of its samples that miss, as the pixel filter spreads them."""
+        if world is None or len(self.missed) == 0:
+            return np.zeros((len(self.pixels), 3))
+        return group_sum(self.missed // self.spp, np.asarray(world.radiance(self.miss_direction), np.float64),
+                         len(self.pixels)) / self.spp
 
     @property
     def coverage(self) -> np.ndarray:
