@@ -99,7 +99,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         if sequence is not None:
             FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
                               "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds})
-        LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays,
+        LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info)
         self._write(view_layer.name, result.passes)
@@ -140,10 +140,13 @@ def _one_line(message: str) -> str:
 
 
 def get_panels():
-    """Cycles/Eevee panels that also make sense for this engine (output, format, color management...)."""
-    exclude = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes"}
+    """Cycles/Eevee panels that also make sense for this engine (output, format, color management...); the light's
+    panel is EEVEE's (``panels.ADOPTED``), not this one that shows its type alone. A node editor's copy of a panel
+    (``NODE_``) shares its engines, so it is left out with it."""
+    exclude = {"VIEWLAYER_PT_filter", "VIEWLAYER_PT_layer_passes", "DATA_PT_light"}
     return [p for p in bpy.types.Panel.__subclasses__()
-            if "BLENDER_RENDER" in getattr(p, "COMPAT_ENGINES", set()) and p.__name__ not in exclude]
+            if "BLENDER_RENDER" in getattr(p, "COMPAT_ENGINES", set())
+            and p.__name__.removeprefix("NODE_") not in exclude]
 
 
 def register():

@@ -310,11 +310,10 @@ def camera_of(scene, depsgraph=None) -> Camera:
                          sensor_width=cam.sensor_width, sensor_height=cam.sensor_height, sensor_fit=cam.sensor_fit,
                          ortho_scale=cam.ortho_scale, shift_x=cam.shift_x, shift_y=cam.shift_y,
                          pixel_aspect=r.pixel_aspect_y / r.pixel_aspect_x)
-    cycles = getattr(scene, "cycles", None)  # the pixel filter is Cycles' setting, so both engines match
+    film = scene.vpl_gi  # the pixel filter: ours, the scene's Cycles filter until set (``properties``)
     return Camera(matrix, width, height, window, orthographic=cam.type == "ORTHO",
-                  clip_start=cam.clip_start, clip_end=cam.clip_end,
-                  filter_type=getattr(cycles, "pixel_filter_type", "BLACKMAN_HARRIS"),
-                  filter_width=getattr(cycles, "filter_width", r.filter_size), region=render_border(r, width, height))
+                  clip_start=cam.clip_start, clip_end=cam.clip_end, filter_type=film.pixel_filter_type,
+                  filter_width=film.filter_width, region=render_border(r, width, height))
 
 
 def extract(depsgraph) -> tuple[Scene, list[str]]:
@@ -351,8 +350,8 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     else:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
-    cycles = getattr(depsgraph.scene, "cycles", None)  # render settings: the original, not an evaluated copy
-    bounces = min(cycles.max_bounces, cycles.diffuse_bounces) if cycles is not None else 8
+    paths = depsgraph.scene.vpl_gi  # render settings: the original, not an evaluated copy
+    bounces = min(paths.max_bounces, paths.diffuse_bounces)
     world, environment = _world(scene, warnings)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(names) or ["none"], world=world,

@@ -1,9 +1,20 @@
-"""Render-properties panels of the VPL GI engine: its settings and the passes it can write."""
+"""Panels of the VPL GI engine: its settings, light paths, film, performance and the passes it can write, and
+Blender's own panels of the Light, Material and World tabs adopted for it."""
 from __future__ import annotations
 
 import bpy
 
 from .engine import PASS_TOGGLES, VPLGIRenderEngine
+
+# Blender's own panels of the Light, Material and World tabs that show for this engine too: EEVEE's, whose polls read
+# their own COMPAT_ENGINES for external engines to join (Cycles' read one set shared by every Cycles panel)
+ADOPTED = (
+    "DATA_PT_EEVEE_light",  # type, colour, power, size (the node editor's copy shares its engines)
+    "DATA_PT_spot",  # its Beam Shape: spot angle and blend
+    "EEVEE_MATERIAL_PT_context_material",  # material slots
+    "EEVEE_MATERIAL_PT_surface",
+    "EEVEE_WORLD_PT_surface",
+)
 
 
 class _VPLGIPanel:
@@ -66,7 +77,86 @@ class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
                     col.prop(context.view_layer, toggle, text=name.replace(f"{heading} ", ""))
 
 
-CLASSES = (RENDER_PT_vpl_gi, VIEWLAYER_PT_vpl_gi_passes)
+class DATA_PT_vpl_gi_area_spread(_VPLGIPanel, bpy.types.Panel):
+    """The area light's spread, which the engine renders as Cycles does (EEVEE's Beam Shape is the spot's alone)."""
+    bl_label = "Beam Shape"
+    bl_context = "data"
+    bl_parent_id = "DATA_PT_EEVEE_light"
+
+    @classmethod
+    def poll(cls, context):
+        return context.light is not None and context.light.type == "AREA" and super().poll(context)
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        layout.prop(context.light, "spread")
 
 
-register, unregister = bpy.utils.register_classes_factory(CLASSES)
+class RENDER_PT_vpl_gi_light_paths(_VPLGIPanel, bpy.types.Panel):
+    bl_label = "Light Paths"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.vpl_gi
+        col = layout.column(heading="Max Bounces", align=True)
+        col.prop(settings, "max_bounces")
+        col.prop(settings, "diffuse_bounces")
+
+
+class RENDER_PT_vpl_gi_film(_VPLGIPanel, bpy.types.Panel):
+    bl_label = "Film"
+    bl_context = "render"
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        settings = context.scene.vpl_gi
+        layout.prop(context.scene.render, "film_transparent")
+        col = layout.column()
+        col.prop(settings, "pixel_filter_type")
+        sub = col.column()
+        sub.active = settings.pixel_filter_type != "BOX"  # Box is one pixel wide whatever the width (core.camera)
+        sub.prop(settings, "filter_width")
+
+
+class RENDER_PT_vpl_gi_performance(_VPLGIPanel, bpy.types.Panel):
+    """Blender's own thread settings, which the engine follows as Cycles does (Performance > Threads)."""
+    bl_label = "Performance"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        layout = self.layout
+        layout.use_property_split = True
+        render = context.scene.render
+        col = layout.column()
+        col.prop(render, "threads_mode")
+        sub = col.column(align=True)
+        sub.enabled = render.threads_mode == "FIXED"
+        sub.prop(render, "threads")
+
+
+CLASSES = (RENDER_PT_vpl_gi, RENDER_PT_vpl_gi_light_paths, RENDER_PT_vpl_gi_film, RENDER_PT_vpl_gi_performance,
+           VIEWLAYER_PT_vpl_gi_passes, DATA_PT_vpl_gi_area_spread)
+
+
+def adopted_panels() -> list[type]:
+    """The registered panels named in ``ADOPTED``."""
+    return [getattr(bpy.types, name) for name in ADOPTED if hasattr(bpy.types, name)]
+
+
+def register():
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
+    for panel in adopted_panels():
+        panel.COMPAT_ENGINES.add(VPLGIRenderEngine.bl_idname)
+
+
+def unregister():
+    for panel in adopted_panels():
+        panel.COMPAT_ENGINES.discard(VPLGIRenderEngine.bl_idname)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

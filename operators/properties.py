@@ -21,10 +21,35 @@ METHOD_ITEMS = (
     ("bidir", "Bidirectional IR", "Segovia et al. 2006: VPLs from the lights and from the camera, resampled by the "
                                   "power they bring to the image (robust when light comes through a door)"),
     ("ir", "Instant Radiosity", "Keller 1997: VPLs where light paths from the lights bounce"),
-    ("smc", "Sequential Monte Carlo IR", "Hedman et al. 2016: VPLs kept from frame to frame where the camera sees "
-                                          "them indirectly, at most a few moved per frame (stable animations)"),
+    ("smc", "Sequential Monte Carlo IR", "Hedman et al. 2016: VPLs kept from frame to frame where the camera "
+                                         "sees them indirectly, at most a few moved per frame (stable animations)"),
     ("none", "None", "Direct light only: no indirect light is computed"),
 )
+
+
+FILTER_ITEMS = (
+    ("BOX", "Box", "Every sample of a pixel weighs the same, within the pixel"),
+    ("GAUSSIAN", "Gaussian", "Gaussian filter: samples weigh less away from the pixel's centre"),
+    ("BLACKMAN_HARRIS", "Blackman-Harris", "Blackman-Harris filter: sharper than Gaussian (Cycles' default)"),
+)
+
+
+def _cycles_setting(name: str, items=None) -> dict:
+    """``get`` and ``set`` of a setting of ours that shows, and renders with, the scene's Cycles setting of the same
+    name until it is set here, so a scene made for Cycles keeps its light paths and pixel filter; without Cycles,
+    Cycles' default. What the user sets is kept as the settings' custom property ``name``. ``items``: an enum's."""
+    def get(self):
+        value = self.get(name)
+        if value is not None:
+            return value
+        value = getattr(getattr(self.id_data, "cycles", None), name, None)
+        if value is None:
+            value = self.bl_rna.properties[name].default
+        return [item[0] for item in items].index(value) if items else value
+
+    def set(self, value):
+        self[name] = value
+    return {"get": get, "set": set}
 
 
 class VPLGISettings(bpy.types.PropertyGroup):
@@ -88,6 +113,23 @@ class VPLGISettings(bpy.types.PropertyGroup):
         description="Path reuse: a moved light path keeps the rest of its vertices when the energy reflected at "
                     "its new end changes less than this fraction (Moreau et al. eq. 2); 0 re-traces every moved "
                     "segment")
+    max_bounces: bpy.props.IntProperty(
+        name="Total", default=12, min=0, max=1024, **_cycles_setting("max_bounces"),
+        description="Most bounces a light path makes (as Cycles' Light Paths > Max Bounces > Total; until set "
+                    "here, the scene's Cycles value)")
+    diffuse_bounces: bpy.props.IntProperty(
+        name="Diffuse", default=4, min=0, max=1024, **_cycles_setting("diffuse_bounces"),
+        description="Most diffuse bounces a light path makes: 0 leaves only direct light (as Cycles' Light Paths > "
+                    "Max Bounces > Diffuse; until set here, the scene's Cycles value)")
+    pixel_filter_type: bpy.props.EnumProperty(
+        name="Pixel Filter", items=FILTER_ITEMS, default="BLACKMAN_HARRIS",
+        **_cycles_setting("pixel_filter_type", FILTER_ITEMS),
+        description="How the samples of a pixel are spread and weighed (as Cycles' Film > Pixel Filter; until set "
+                    "here, the scene's Cycles value)")
+    filter_width: bpy.props.FloatProperty(
+        name="Width", default=1.5, min=0.01, max=10.0, subtype="PIXEL", **_cycles_setting("filter_width"),
+        description="Width of the pixel filter in pixels (as Cycles' Film > Pixel Filter > Width; until set here, "
+                    "the scene's Cycles value)")
     bake_directory: bpy.props.StringProperty(
         name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
         description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
@@ -96,16 +138,15 @@ class VPLGISettings(bpy.types.PropertyGroup):
         description="Replace a bake of other settings (or frames not from a bake) found in the folder")
 
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
+        vbnl = VBNLSettings(photons=self.photons, elimination=self.elimination,
+                            sampling=SamplingSettings(samples=self.vbnl_samples, extension=self.path_extension))
+        placement = MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse, path_threshold=self.path_threshold,
+                                   smc=replace(_SMC, replacements=self.smc_replacements, warmup=self.smc_warmup),
+                                   vbnl=vbnl)
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               film_transparent=self.id_data.render.film_transparent,
-                              method=self.method, indirect_samples=self.indirect_samples,
-                              placement=MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse,
-                                                         path_threshold=self.path_threshold, smc=replace(
-                                  _SMC, replacements=self.smc_replacements, warmup=self.smc_warmup),
-                                  vbnl=VBNLSettings(
-                                  photons=self.photons, elimination=self.elimination,
-                                  sampling=SamplingSettings(samples=self.vbnl_samples,
-                                                            extension=self.path_extension))),
+                              threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
+                              method=self.method, indirect_samples=self.indirect_samples, placement=placement,
                               gather=GatherSettings(interleave=self.interleave, clamp=self.clamp, filter=self.filter))
 
 

@@ -62,6 +62,7 @@ class RenderSettings:
     # Film > Transparent: on, the background is 0 in Combined and alpha the coverage (the references' film); off
     # (Blender's default), Combined shows the world where camera rays miss, with alpha 1
     film_transparent: bool = True
+    threads: int | None = None  # CPU threads that trace and shade (None: every core); the pixels do not change
     block_pixels: int = 4096
 
     def __post_init__(self):
@@ -85,6 +86,7 @@ class RenderResult:
     passes: dict[str, np.ndarray]  # name -> (H,W,C) float32, row 0 at the top
     seconds: dict[str, float] = field(default_factory=dict)  # stage -> seconds (blocks: summed over threads)
     rays: int = 0
+    threads: int = 1  # CPU threads it ran on
     warnings: list[str] = field(default_factory=list)
     info: dict = field(default_factory=dict)  # what the method reports (paths traced, reverse share, ...)
 
@@ -113,8 +115,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     for name, count in scene.dropped.items():
         result.warnings.append(f"object {name!r}: {count} degenerate or non-finite triangles skipped")
     t0 = time.perf_counter()
-    tracer = Tracer(scene.triangles, cutouts=cutouts(scene), seed=settings.seed) if sequence is None \
-        else sequence.begin(scene)
+    tracer = Tracer(scene.triangles, threads=settings.threads, cutouts=cutouts(scene), seed=settings.seed) \
+        if sequence is None else sequence.begin(scene, threads=settings.threads)
     lights = LightSet(scene)
     if len(lights) == 0:
         result.warnings.append("the scene has no lights: direct and indirect light are black")
@@ -312,7 +314,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     if P.DIFFUSE_INDIRECT in want:
         images[P.DIFFUSE_INDIRECT] = indirect if glazed is None else indirect + glazed
     result.seconds.update(timing)
-    result.rays = tracer.rays_traced
+    result.rays, result.threads = tracer.rays_traced, tracer.threads
     (x, y, _, _), (bx, by, bw, bh) = cam.pixel_region, scene.camera.pixel_region
     border = (slice(by - y, by - y + bh), slice(bx - x, bx - x + bw))  # the filter's margin off
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want

@@ -50,16 +50,19 @@ class SequenceState:
         self.rng_state = None  # the placement generator's state after the lights were last placed
         self._tracer: Tracer | None = None
         self._tracer_digest: str | None = None
+        self._threads: int | None = None  # the threads the tracer was asked for
 
     # -- per frame -------------------------------------------------------------------------------------------------
-    def begin(self, scene, frame: int | None = None) -> Tracer:
+    def begin(self, scene, frame: int | None = None, threads: int | None = None) -> Tracer:
+        """The frame's tracer (on ``threads`` CPU threads, None: every core): the previous frame's, unless the
+        triangles or the threads changed."""
         snapshot = Snapshot.of(scene)
         self.motion = Motion.between(self.snapshot, snapshot)
         self.snapshot, self.frame = snapshot, frame
-        if self._tracer is None or self._tracer_digest != snapshot.triangles:
+        if self._tracer is None or self._tracer_digest != snapshot.triangles or self._threads != threads:
             if self._tracer is not None:
                 self._tracer.close()
-            self._tracer = Tracer(scene.triangles)
+            self._tracer, self._threads = Tracer(scene.triangles, threads=threads), threads
             self._tracer_digest = snapshot.triangles
             self.bvh_builds += 1
         self._tracer.rays_traced = 0
