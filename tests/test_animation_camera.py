@@ -5,7 +5,7 @@ camera at its first position while everything else moved."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh
+from conftest import add_mesh, add_sun
 
 pytestmark = pytest.mark.blender
 
@@ -16,10 +16,7 @@ def _animated_camera_scene(bpy):
     scene.render.resolution_x = scene.render.resolution_y = 32
     add_mesh(bpy, "Floor", [(-4, -4, 0), (4, -4, 0), (4, 4, 0), (-4, 4, 0)], [(0, 1, 2, 3)])
     bpy.ops.mesh.primitive_cube_add(size=1.5, location=(0.0, 0.0, 0.75))
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (np.radians(40.0), 0.0, np.radians(30.0))
-    scene.collection.objects.link(sun)
+    add_sun(bpy, scene, (np.radians(40.0), 0.0, np.radians(30.0)), energy=3.0)
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     scene.collection.objects.link(cam)
     scene.camera = cam

@@ -5,7 +5,7 @@ anti-aliasing)."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world, pass_errors, run_cli, surface_material
+from conftest import add_mesh, add_sun, camera_and_black_world, pass_errors, run_cli, surface_material
 from test_extract import bpy, extracted  # noqa: F401 (bpy: the fixture)
 
 pytestmark = pytest.mark.blender
@@ -70,8 +70,7 @@ def _scene(bpy):
             _colour_attributes(obj.data)
     camera_and_black_world(bpy, scene, (0.0, 0.0, 5.0))
     scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 6.6
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    scene.collection.objects.link(sun)
+    add_sun(bpy, scene, (0.0, 0.0, 0.0))
     scene.render.resolution_x, scene.render.resolution_y = 66, 22
     scene.view_layers[0].use_pass_diffuse_color = True
     return scene

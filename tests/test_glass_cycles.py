@@ -5,7 +5,7 @@ does the engine (``materials.cutouts``: shadow rays through glass report it)."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world, pass_errors, run_cli, shader_material
+from conftest import add_mesh, add_sun, camera_and_black_world, pass_errors, run_cli, shader_material
 
 pytestmark = pytest.mark.blender
 
@@ -33,11 +33,8 @@ def window_blend(tmp_path):
     add_mesh(bpy, "Pane", c, [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)],
              material=glass)
 
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 5.0
-    sun.data.angle = np.radians(20.0)  # wide enough that Cycles' BSDF samples find it through the pane
-    sun.rotation_euler = (np.radians(-55.0), 0.0, 0.0)  # from outside the window, 35 degrees high
-    scene.collection.objects.link(sun)
+    # from outside the window, 35 degrees high; wide enough that Cycles' BSDF samples find it through the pane
+    add_sun(bpy, scene, (np.radians(-55.0), 0.0, 0.0), energy=5.0, angle=np.radians(20.0))
     # down at the floor; the window stays out of view
     camera_and_black_world(bpy, scene, (0.0, -1.9, 2.0), (np.radians(90.0 - 38.7), 0.0, 0.0))
     path = tmp_path / "window.blend"

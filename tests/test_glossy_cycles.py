@@ -8,7 +8,7 @@ import copy
 
 import pytest
 
-from conftest import EXAMPLES, REFERENCES
+from conftest import EXAMPLES, REFERENCES, add_sun
 
 pytestmark = pytest.mark.blender
 NAME = "cornell_metal"
@@ -108,10 +108,7 @@ def test_a_glossy_bsdf_floor_at_grazing_reflects_the_sun_as_cycles_does(ext, tmp
     bpy.context.object.data.materials.append(
         shader_material(bpy, "Glossy", "ShaderNodeBsdfGlossy", {"Color": (grey, grey, grey, 1.0), "Roughness": 0.3}))
     tilt = np.radians(90.0 - elevation)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy, sun.data.angle = 3.0, 0.1
-    sun.rotation_euler = (tilt, 0.0, np.pi)  # shining towards the camera: the highlight in view
-    scene.collection.objects.link(sun)
+    add_sun(bpy, scene, (tilt, 0.0, np.pi), energy=3.0, angle=0.1)  # towards the camera: the highlight in view
     camera_and_black_world(bpy, scene, (0.0, -6.0, 6.0 * np.tan(np.radians(elevation))), (tilt, 0.0, 0.0))
     scene.render.resolution_x = scene.render.resolution_y = 64
     configure_cycles(scene, 256)

@@ -4,7 +4,7 @@ default to the scene's Cycles values and change the render, and unregistering ta
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world
+from conftest import add_mesh, add_sun, camera_and_black_world
 
 pytestmark = pytest.mark.blender
 
@@ -75,10 +75,7 @@ def _lit_floor(bpy):
     scene.render.resolution_x, scene.render.resolution_y = 32, 24
     add_mesh(bpy, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], [(0, 1, 2, 3)])
     add_mesh(bpy, "Wall", [(-3, 1, 0), (3, 1, 0), (3, 1, 3), (-3, 1, 3)], [(0, 1, 2, 3)])
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 3.0
-    sun.rotation_euler = (np.radians(-50.0), 0.0, 0.0)  # from behind the camera, onto the wall and the floor
-    scene.collection.objects.link(sun)
+    add_sun(bpy, scene, (np.radians(-50.0), 0.0, 0.0), energy=3.0)  # from behind the camera, onto wall and floor
     camera_and_black_world(bpy, scene, (0.0, -6.0, 3.0), (np.radians(65.0), 0.0, 0.0))
     return scene
 

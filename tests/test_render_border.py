@@ -11,7 +11,7 @@ indirect light of the border is the whole frame's too."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world, shader_material
+from conftest import add_mesh, add_sun, camera_and_black_world, shader_material
 
 pytestmark = pytest.mark.blender
 
@@ -43,10 +43,7 @@ def _cube_on_a_floor(bpy):
     blue = shader_material(bpy, "Blue", "ShaderNodeBsdfDiffuse", {"Color": (0.2, 0.4, 0.8, 1.0)})
     add_mesh(bpy, "Cube", c, [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)],
              blue)
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy, sun.data.angle = 3.0, 0.0
-    sun.rotation_euler = (np.radians(40.0), 0.0, np.radians(30.0))
-    scene.collection.objects.link(sun)
+    add_sun(bpy, scene, (np.radians(40.0), 0.0, np.radians(30.0)), energy=3.0, angle=0.0)
     where = Vector((3.5, -4.5, 4.0))
     camera_and_black_world(bpy, scene, where, (Vector((0.0, 0.0, 0.4)) - where).to_track_quat("-Z", "Y").to_euler())
     scene.render.film_transparent = True

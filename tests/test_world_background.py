@@ -5,7 +5,7 @@ transparent). A pixel on an edge blends the two with the weight of the samples t
 import numpy as np
 import pytest
 
-from conftest import add_mesh
+from conftest import add_mesh, add_sun
 
 pytestmark = pytest.mark.blender
 
@@ -28,10 +28,7 @@ def _cube_under_a_blue_sky(bpy):
     scene.render.resolution_x, scene.render.resolution_y = 32, 24
     c = [(x, y, z) for x in (-0.5, 0.5) for y in (-0.5, 0.5) for z in (-0.5, 0.5)]
     add_mesh(bpy, "Cube", c, [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)])
-    sun = bpy.data.objects.new("Sun", bpy.data.lights.new("Sun", "SUN"))
-    sun.data.energy = 2.0
-    sun.rotation_euler = (np.radians(35.0), 0.0, np.radians(20.0))
-    scene.collection.objects.link(sun)
+    add_sun(bpy, scene, (np.radians(35.0), 0.0, np.radians(20.0)), energy=2.0)
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location = (3.0, -3.0, 2.5)
     cam.rotation_euler = (-Vector(cam.location)).to_track_quat("-Z", "Y").to_euler()
