@@ -152,7 +152,7 @@ def _prepare_scene(args):
     if args.percentage is not None:
         scene.render.resolution_percentage = args.percentage
     for layer in scene.view_layers:
-        for _, toggle, _, _ in engine.PASS_TOGGLES:
+        for _, toggle, _, _ in engine.LIGHT_PASSES:
             setattr(layer, toggle, True)
     return scene
 

@@ -1,8 +1,10 @@
 """The "VPL GI" RenderEngine: F12, ``blender -b ... -f N`` and the CLI all render through it.
 
 Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color,
-Glossy Direct / Indirect / Color, Emission and Environment when enabled), so Blender writes them into multilayer EXRs
-and the compositor sees them by name. *Film > Transparent* decides whether Combined shows the world, as in Cycles.
+Glossy Direct / Indirect / Color, Emission, Environment, Ambient Occlusion, Depth, Mist, Normal, Position, Object and
+Material Index and Cryptomatte when enabled), so Blender writes them into multilayer EXRs (Cryptomatte with its
+manifests) and the compositor sees them by name; a pass switched on that the engine does not write is named in one
+warning. *Film > Transparent* decides whether Combined shows the world, as in Cycles.
 """
 from __future__ import annotations
 
@@ -11,6 +13,7 @@ import time
 import bpy
 import numpy as np
 
+from ..vpl_addon.core import cryptomatte
 from ..vpl_addon.core import passes as P
 from ..vpl_addon.core.memory import trim_heap
 from ..vpl_addon.core.passes import BadOutput
@@ -18,8 +21,8 @@ from ..vpl_addon.render import Cancelled, render
 from .extract import ExtractionError, extract
 from .frame_state import FRAME_LOG, active_sequence
 
-# (pass name, view layer toggle, channels, channel ids)
-PASS_TOGGLES = (
+# (pass name, view layer toggle, channels, channel ids): the passes of light, then the data passes
+LIGHT_PASSES = (
     (P.DIFFUSE_DIRECT, "use_pass_diffuse_direct", 3, "RGB"),
     (P.DIFFUSE_INDIRECT, "use_pass_diffuse_indirect", 3, "RGB"),
     (P.DIFFUSE_COLOR, "use_pass_diffuse_color", 3, "RGB"),
@@ -29,6 +32,19 @@ PASS_TOGGLES = (
     (P.GLOSSY_COLOR, "use_pass_glossy_color", 3, "RGB"),
     (P.ENVIRONMENT, "use_pass_environment", 3, "RGB"),
 )
+DATA_PASSES = (
+    (P.AO, "use_pass_ambient_occlusion", 3, "RGB"),
+    (P.DEPTH, "use_pass_z", 1, "Z"),
+    (P.MIST, "use_pass_mist", 1, "Z"),
+    (P.POSITION, "use_pass_position", 3, "XYZ"),
+    (P.NORMAL, "use_pass_normal", 3, "XYZ"),
+    (P.OBJECT_INDEX, "use_pass_object_index", 1, "X"),
+    (P.MATERIAL_INDEX, "use_pass_material_index", 1, "X"),
+)
+PASS_TOGGLES = LIGHT_PASSES + DATA_PASSES
+# Cryptomatte kind -> its view layer toggle; the number of passes follows the view layer's Levels
+CRYPTOMATTE_TOGGLES = {"CryptoObject": "use_pass_cryptomatte_object", "CryptoMaterial": "use_pass_cryptomatte_material",
+                       "CryptoAsset": "use_pass_cryptomatte_asset"}
 
 # Messages of the last render, for callers that cannot see the UI (the command line, tests).
 LAST_REPORTS: list[tuple[str, str]] = []
@@ -36,7 +52,33 @@ LAST_STATS: dict = {}
 
 
 def requested_passes(view_layer) -> tuple[str, ...]:
-    return (P.COMBINED,) + tuple(name for name, toggle, _, _ in PASS_TOGGLES if getattr(view_layer, toggle, False))
+    names = [name for name, toggle, _, _ in PASS_TOGGLES if getattr(view_layer, toggle, False)]
+    for kind, toggle in CRYPTOMATTE_TOGGLES.items():
+        if getattr(view_layer, toggle, False):
+            names += P.cryptomatte_passes(kind, view_layer.pass_cryptomatte_depth)
+    return (P.COMBINED,) + tuple(names)
+
+
+def channel_ids(name: str) -> str:
+    """Blender's channel names of a pass: ``RGBA`` of Combined and Cryptomatte, ``XYZ``... of the data passes."""
+    return next((ids for pass_name, _, _, ids in PASS_TOGGLES if pass_name == name), "RGBA")
+
+
+def unwritten_passes(view_layer) -> list[str]:
+    """What the user switched on for this view layer that the engine does not write, by its UI name: Blender's
+    other pass toggles, Cycles' (its volume, shadow catcher, denoising and debug passes), shader AOVs and light
+    groups."""
+    ours = {toggle for _, toggle, _, _ in PASS_TOGGLES} | set(CRYPTOMATTE_TOGGLES.values()) | \
+        {"use_pass_combined", "use_pass_cryptomatte_accurate"}  # Combined always; Accurate is no pass
+    toggles = [(view_layer, prop) for prop in view_layer.bl_rna.properties if prop.identifier.startswith("use_pass_")]
+    cycles = getattr(view_layer, "cycles", None)  # None when Cycles is disabled
+    if cycles is not None:
+        toggles += [(cycles, prop) for prop in cycles.bl_rna.properties if prop.identifier != "use_denoising"]
+    names = [prop.name for settings, prop in toggles if prop.type == "BOOLEAN" and prop.identifier not in ours
+             and getattr(settings, prop.identifier)]
+    names += [f"AOV {aov.name!r}" for aov in getattr(view_layer, "aovs", ())]
+    names += [f"light group {group.name!r}" for group in getattr(view_layer, "lightgroups", ())]
+    return names
 
 
 class VPLGIRenderEngine(bpy.types.RenderEngine):
@@ -75,6 +117,10 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         for warning in warnings:
             self._report("WARNING", warning)
         passes = requested_passes(view_layer)
+        unwritten = unwritten_passes(view_layer)
+        if unwritten:
+            self._report("WARNING", f"view layer {view_layer.name!r}: VPL GI does not write these passes: "
+                                    f"{', '.join(unwritten)}")
         settings = scene.vpl_gi.render_settings(passes)
         sequence, settings.placement_seed = active_sequence(scene, settings, self.is_animation)  # bake, blender -a
 
@@ -102,16 +148,16 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info)
-        self._write(view_layer.name, result.passes)
+        self._write(view_layer.name, result.passes, _cryptomatte_metadata(view_layer.name, passes, built))
 
-    def _write(self, layer_name, images):
+    def _write(self, layer_name, images, metadata):
         """Hand the images to Blender. With a render border Blender's result is the border's size, cropped or not
         (without crop Blender puts it back into the full frame itself, as it does with Cycles' result), so the
         images, which are the border's pixels, fill it from (0, 0)."""
         height, width = images[P.COMBINED].shape[:2]
         for name in images:
             if name != P.COMBINED:
-                self.add_pass(name, P.CHANNELS[name], "RGBA"[:P.CHANNELS[name]], layer=layer_name)
+                self.add_pass(name, P.CHANNELS[name], channel_ids(name), layer=layer_name)
         out = self.begin_result(0, 0, width, height, layer=layer_name)
         if (out.resolution_x, out.resolution_y) != (width, height):  # never a silent misfit: name the setting
             self.end_result(out, cancel=True)
@@ -127,12 +173,27 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             # engine images have row 0 at the top, Blender's buffers at the bottom
             render_pass.rect.foreach_set(np.ascontiguousarray(image[::-1]).reshape(-1))
         self.end_result(out)
+        whole = self.get_result()  # the file's header takes the whole result's stamp data, not a tile's
+        for key, value in metadata.items():
+            whole.stamp_data_add_field(key, value)
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, P.COMBINED, 4, "RGBA", "COLOR")
-        for name, toggle, channels, ids in PASS_TOGGLES:
-            if name in requested_passes(renderlayer):
-                self.register_pass(scene, renderlayer, name, channels, ids, "COLOR")
+        for name in requested_passes(renderlayer)[1:]:
+            ids = channel_ids(name)
+            kind = "COLOR" if ids.startswith("RGB") else "VECTOR" if len(ids) == 3 else "VALUE"
+            self.register_pass(scene, renderlayer, name, P.CHANNELS[name], ids, kind)
+
+
+def _cryptomatte_metadata(layer_name: str, passes, scene) -> dict[str, str]:
+    """The manifests of the Cryptomatte kinds among ``passes`` (``core.cryptomatte``), for the file's header."""
+    names = {"CryptoObject": scene.object_names, "CryptoMaterial": scene.materials.names,
+             "CryptoAsset": scene.asset_names}
+    metadata = {}
+    for kind, listed in names.items():
+        if any(name.startswith(kind) for name in passes):
+            metadata.update(cryptomatte.header(f"{layer_name}.{kind}", listed))
+    return metadata
 
 
 def _one_line(message: str) -> str:

@@ -316,13 +316,35 @@ def camera_of(scene, depsgraph=None) -> Camera:
                   filter_width=film.filter_width, region=render_border(r, width, height))
 
 
+class _Objects:
+    """The objects met, each once however often instanced: its index, Pass Index and asset (Cryptomatte's: the
+    outermost parent, of the instancer for an instance, as in Cycles)."""
+
+    def __init__(self):
+        self.names: dict[str, int] = {}
+        self.assets: dict[str, int] = {}
+        self.pass_index: list[int] = []
+        self.asset: list[int] = []
+
+    def id_of(self, inst) -> int:
+        obj = inst.object
+        if obj.name not in self.names:
+            top = inst.parent if inst.is_instance and inst.parent is not None else obj
+            while top.parent is not None:
+                top = top.parent
+            self.names[obj.name] = len(self.names)
+            self.pass_index.append(obj.pass_index)
+            self.asset.append(self.assets.setdefault(top.name, len(self.assets)))
+        return self.names[obj.name]
+
+
 def extract(depsgraph) -> tuple[Scene, list[str]]:
     """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way."""
     scene = depsgraph.scene_eval
     warnings: list[str] = []
     camera = camera_of(depsgraph.scene, depsgraph)
     materials = MaterialTable(warnings)
-    parts, lights, names = [], [], {}
+    parts, lights, objects = [], [], _Objects()
     for inst in depsgraph.object_instances:
         obj = inst.object
         if obj.hide_render:  # a render depsgraph has dropped these already; a viewport one has not
@@ -335,8 +357,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
                     warnings.append(f"light {obj.name!r}: {broken}; it gives no light")
                 lights.append(light)
         elif obj.type in GEOMETRY_TYPES:
-            arrays = _mesh_arrays(obj, inst.matrix_world, materials, names.setdefault(obj.name, len(names)),
-                                  warnings)
+            arrays = _mesh_arrays(obj, inst.matrix_world, materials, objects.id_of(inst), warnings)
             if arrays is not None:
                 parts.append(arrays)
     tangents = colors = None
@@ -354,7 +375,8 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     bounces = min(paths.max_bounces, paths.diffuse_bounces)
     world, environment = _world(scene, warnings)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
-                        object_id=object_id, object_names=list(names) or ["none"], world=world,
+                        object_id=object_id, object_names=list(objects.names) or ["none"], world=world,
                         environment=environment, textures=materials.textures, tangents=tangents, colors=colors,
-                        max_bounces=bounces)
+                        max_bounces=bounces, object_pass_index=objects.pass_index or None,
+                        object_asset=objects.asset or None, asset_names=list(objects.assets) or None)
     return built, warnings

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from .engine import PASS_TOGGLES, VPLGIRenderEngine
+from .engine import CRYPTOMATTE_TOGGLES, VPLGIRenderEngine
 
 # Blender's own panels of the Light, Material and World tabs that show for this engine too: EEVEE's, whose polls read
 # their own COMPAT_ENGINES for external engines to join (Cycles' read one set shared by every Cycles panel)
@@ -63,18 +63,26 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
 
 
 class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
+    """The passes the engine writes, grouped as Cycles' own pass panels group them."""
     bl_label = "Passes"
     bl_context = "view_layer"
+    GROUPS = (  # (heading, toggles)
+        ("Data", ("use_pass_z", "use_pass_mist", "use_pass_position", "use_pass_normal")),
+        ("Indexes", ("use_pass_object_index", "use_pass_material_index")),
+        ("Diffuse", ("use_pass_diffuse_direct", "use_pass_diffuse_indirect", "use_pass_diffuse_color")),
+        ("Glossy", ("use_pass_glossy_direct", "use_pass_glossy_indirect", "use_pass_glossy_color")),
+        ("Light", ("use_pass_emit", "use_pass_environment", "use_pass_ambient_occlusion")),
+        ("Cryptomatte", tuple(CRYPTOMATTE_TOGGLES.values()) + ("pass_cryptomatte_depth",)),
+    )
 
     def draw(self, context):
         layout = self.layout
         layout.use_property_split = True
-        for heading in ("Diffuse", "Glossy", "Other"):  # as Cycles' own pass panel groups them
+        labels = context.view_layer.bl_rna.properties
+        for heading, toggles in self.GROUPS:
             col = layout.column(heading=heading, align=True)
-            for name, toggle, _, _ in PASS_TOGGLES:
-                kind = name.split(" ")[0] if name.split(" ")[0] in ("Diffuse", "Glossy") else "Other"
-                if kind == heading:
-                    col.prop(context.view_layer, toggle, text=name.replace(f"{heading} ", ""))
+            for toggle in toggles:
+                col.prop(context.view_layer, toggle, text=labels[toggle].name.removeprefix(f"{heading} "))
 
 
 class DATA_PT_vpl_gi_area_spread(_VPLGIPanel, bpy.types.Panel):

@@ -9,11 +9,14 @@ from ..vpl_addon.gather.summing import GatherSettings
 from ..vpl_addon.methods import MethodSettings
 from ..vpl_addon.methods.vbnl import VBNLSettings
 from ..vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
+from ..vpl_addon.paths.data_passes import Mist
 from ..vpl_addon.render import RenderSettings
 
 _RENDER, _GATHER, _PLACE = RenderSettings(), GatherSettings(), MethodSettings()
 _VBNL = _PLACE.vbnl
 _SMC = _PLACE.smc
+
+MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}  # the exponents Cycles gives them
 
 METHOD_ITEMS = (
     ("vbnl", "Virtual Blue Noise Lighting", "Li et al. 2022: lights placed from the camera in a blue-noise "
@@ -143,7 +146,11 @@ class VPLGISettings(bpy.types.PropertyGroup):
         placement = MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse, path_threshold=self.path_threshold,
                                    smc=replace(_SMC, replacements=self.smc_replacements, warmup=self.smc_warmup),
                                    vbnl=vbnl)
+        world = self.id_data.world  # its Mist Pass and AO distance, as Cycles reads them
+        mist = Mist() if world is None else Mist(world.mist_settings.start, world.mist_settings.depth,
+                                                 MIST_FALLOFF[world.mist_settings.falloff])
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
+                              mist=mist, ao_distance=10.0 if world is None else world.light_settings.distance,
                               film_transparent=self.id_data.render.film_transparent,
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
                               method=self.method, indirect_samples=self.indirect_samples, placement=placement,

@@ -16,7 +16,7 @@ import bpy
 
 from ..vpl_addon.core import passes as P
 from ..vpl_addon.core.exr import read_passes, write_passes
-from .engine import PASS_TOGGLES
+from .engine import LIGHT_PASSES
 from .output import render_to
 
 HEADER_KEY = "vplReference"
@@ -64,7 +64,7 @@ def configure_cycles(scene, samples: int) -> None:
     c.use_animated_seed = False
     scene.render.film_transparent = True
     for layer in scene.view_layers:
-        for _, toggle, _, _ in PASS_TOGGLES:
+        for _, toggle, _, _ in LIGHT_PASSES:
             setattr(layer, toggle, True)
 
 

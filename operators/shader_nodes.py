@@ -208,7 +208,7 @@ class MaterialTable:
         key = material.name_full
         if key not in self.index:
             self._uv_names, self._image_names, self._attributes = [], [], []
-            self.rows.append(self._read(material))
+            self.rows.append({**self._read(material), "pass_index": material.pass_index})
             self.index[key] = len(self.rows)
             names = sorted({n for n in self._uv_names if n is not None})  # None: the default map
             if len(names) > 1:

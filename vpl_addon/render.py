@@ -8,7 +8,8 @@ block)`` so a render is deterministic (a border's blocks are not the frame's: it
 noise). ``progress(fraction, text)`` is called after each block and may return False to cancel (ESC in Blender),
 which raises ``Cancelled``.
 Work a pass does not need is skipped: no lights, no shadow rays and no VPLs; no ``Diffuse Indirect`` requested (or
-method "none"), no VPLs; no metallic material, nothing glossy.
+method "none"), no VPLs; no metallic material, nothing glossy; each data pass (``paths.data_passes``) only when
+asked for.
 
 The light passes are, as in Cycles, divided by their colour: the sum over a pixel's samples of light times colour
 over the sum of colour (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, ``Glossy Direct`` /
@@ -37,6 +38,7 @@ from .lights.direct import direct_light
 from .materials.cutouts import cutouts
 from .materials.microfacet import GlossyLobe
 from .methods import METHODS, MethodContext, MethodSettings, place
+from .paths.data_passes import Mist, data_passes
 from .paths.gbuffer import GBuffer
 from .paths.over_metal import over_metal
 
@@ -63,6 +65,8 @@ class RenderSettings:
     # (Blender's default), Combined shows the world where camera rays miss, with alpha 1
     film_transparent: bool = True
     threads: int | None = None  # CPU threads that trace and shade (None: every core); the pixels do not change
+    mist: Mist = field(default_factory=Mist)  # the world's mist settings (the Mist pass)
+    ao_distance: float = 10.0  # the world's AO distance (the Ambient Occlusion pass)
     block_pixels: int = 4096
 
     def __post_init__(self):
@@ -78,7 +82,9 @@ class RenderSettings:
             raise ValueError(f"the VPL budget must be at least 1 (got {self.placement.vpls})")
         unknown = [p for p in self.passes if p not in P.CHANNELS]
         if unknown:
-            raise ValueError(f"unknown pass {unknown[0]!r}; known passes: {', '.join(P.ALL)}")
+            raise ValueError(f"unknown pass {unknown[0]!r}; known passes: {', '.join(P.ALL + P.DATA)} and "
+                             f"Cryptomatte's {', '.join(P.cryptomatte_passes(kind, 2)[0] for kind in P.CRYPTOMATTE)}"
+                             f" to {P.CRYPTOMATTE_PASSES - 1:02d}")
 
 
 @dataclass
@@ -162,6 +168,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         # gathering samples of that lobe, and their number
         guide_position, guide_normal = np.zeros((2, w * h, 3)), np.zeros((2, w * h, 3))
         guide_count = np.zeros((2, w * h))
+        data_wanted = want - set(P.ALL)
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
         cancelled = threading.Event()
@@ -271,6 +278,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         images[name][pixels] = image
             if P.EMIT in want:
                 images[P.EMIT][pixels] = gbuf.splat(surf.emission)
+            if data_wanted:
+                for name, image in data_passes(gbuf, scene, data_wanted, tracer, rng, settings.mist,
+                                               settings.ao_distance).items():
+                    images[name][pixels] = image
             return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
                     "gather": marks["gather"] - marks["direct"]}
 

@@ -1,8 +1,9 @@
 """Multilayer EXR files as Blender writes them: one pass per channel group ``<ViewLayer>.<Pass>``.
 
 ``read_passes`` accepts single- and multi-part files and returns ``{pass name: (H,W,C) float32}`` for the first view
-layer, rows from the top; ``write_passes`` writes the same layout (one part per pass) with extra header attributes,
-through a temporary file renamed into place so no partial file ever carries the final name.
+layer, rows from the top, channels in Blender's order (RGBA, XYZW, UVA; Cryptomatte's rgba); ``write_passes`` writes
+the same layout (one part per pass) with extra header attributes, through a temporary file renamed into place so no
+partial file ever carries the final name.
 """
 from __future__ import annotations
 
@@ -13,24 +14,30 @@ import numpy as np
 import OpenEXR
 
 LAYER = "ViewLayer"
+CHANNEL_ORDER = "RGBXYZUVWA"  # of the channels of a pass: RGBA, XYZ(W) of vectors, UVA of the UV pass
 
 
 def read_passes(path: str) -> tuple[dict[str, np.ndarray], dict]:
     """Passes of the first view layer in ``path`` and the header of its first part."""
     with OpenEXR.File(str(path)) as f:
-        passes: dict[str, np.ndarray] = {}
+        channels: dict[str, dict[str, np.ndarray]] = {}  # pass -> channel -> (H,W) or (H,W,C) of grouped RGB(A)
         layer = None
         for part in f.parts:
             for name, channel in part.channels.items():
                 prefix, _, pass_name = name.rpartition(".")
                 if not prefix:  # a plain RGB(A) image: treat it as Combined
                     prefix, pass_name = LAYER, "Combined"
+                letter = ""
+                if "." in prefix:  # a channel OpenEXR did not group: <layer>.<pass>.<X|Y|Z|r|...>
+                    (prefix, _, pass_name), letter = prefix.rpartition("."), pass_name
                 layer = layer or prefix
-                if prefix != layer:
-                    continue
-                pixels = np.asarray(channel.pixels, np.float32)
-                passes[pass_name] = pixels if pixels.ndim == 3 else pixels[..., None]
+                if prefix == layer:
+                    channels.setdefault(pass_name, {})[letter] = np.asarray(channel.pixels, np.float32)
         header = dict(f.parts[0].header) if f.parts else {}
+    passes = {}
+    for name, parts in channels.items():
+        ordered = [parts[letter] for letter in sorted(parts, key=lambda c: CHANNEL_ORDER.find(c.upper()))]
+        passes[name] = np.concatenate([p if p.ndim == 3 else p[..., None] for p in ordered], axis=2)
     return passes, header
 
 

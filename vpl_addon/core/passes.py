@@ -12,6 +12,11 @@ world's radiance that camera rays which miss every surface see, times the share 
 (Cycles' background pass, written whether the film is transparent or not). ``Combined`` holds it too, with alpha 1,
 unless *Film > Transparent* is on: then its background is 0 and alpha the coverage, as in Cycles. So ``Combined`` is
 the sum of the diffuse, glossy and emission parts, plus ``Environment`` when the film is not transparent.
+
+The data passes describe what the camera sees, not light (``paths.data_passes``, with Cycles' meanings): ``Depth``
+(distance along the view axis, 1e10 where the pixel's first sample misses), ``Mist``, ``Normal``, ``Position``,
+``Ambient Occlusion``, ``Object Index``, ``Material Index`` and the Cryptomatte passes ``CryptoObject00``,
+``CryptoMaterial00``, ``CryptoAsset00``... (two id-coverage ranks per RGBA pass, ``core.cryptomatte``).
 """
 from __future__ import annotations
 
@@ -26,11 +31,31 @@ GLOSSY_DIRECT = "Glossy Direct"
 GLOSSY_INDIRECT = "Glossy Indirect"
 GLOSSY_COLOR = "Glossy Color"
 ENVIRONMENT = "Environment"
+DEPTH = "Depth"
+MIST = "Mist"
+NORMAL = "Normal"
+POSITION = "Position"
+AO = "Ambient Occlusion"
+OBJECT_INDEX = "Object Index"
+MATERIAL_INDEX = "Material Index"
+# Cryptomatte: a kind's passes are its name and a two-digit number (CryptoObject00, CryptoObject01, ...)
+CRYPTOMATTE = ("CryptoObject", "CryptoMaterial", "CryptoAsset")
+CRYPTOMATTE_PASSES = 8  # Blender's 16 levels at most, two per pass
 
 CHANNELS = {COMBINED: 4, DIFFUSE_DIRECT: 3, DIFFUSE_INDIRECT: 3, DIFFUSE_COLOR: 3, EMIT: 3,
             GLOSSY_DIRECT: 3, GLOSSY_INDIRECT: 3, GLOSSY_COLOR: 3, ENVIRONMENT: 3}
 GLOSSY = (GLOSSY_DIRECT, GLOSSY_INDIRECT, GLOSSY_COLOR)
-ALL = tuple(CHANNELS)
+ALL = tuple(CHANNELS)  # the passes of light and colour
+DATA = (DEPTH, MIST, NORMAL, POSITION, AO, OBJECT_INDEX, MATERIAL_INDEX)
+CHANNELS.update({DEPTH: 1, MIST: 1, NORMAL: 3, POSITION: 3, AO: 3, OBJECT_INDEX: 1, MATERIAL_INDEX: 1})
+CHANNELS.update({f"{kind}{number:02d}": 4 for kind in CRYPTOMATTE for number in range(CRYPTOMATTE_PASSES)})
+# passes whose values may be negative (coordinates, and Cryptomatte ids, which are hashes read as floats)
+SIGNED = {NORMAL, POSITION} | {name for name in CHANNELS if name.startswith(CRYPTOMATTE)}
+
+
+def cryptomatte_passes(kind: str, levels: int) -> tuple[str, ...]:
+    """The pass names that hold ``levels`` ranks of a Cryptomatte kind, as Blender names them."""
+    return tuple(f"{kind}{number:02d}" for number in range(min(-(-levels // 2), CRYPTOMATTE_PASSES)))
 
 
 class BadOutput(RuntimeError):
@@ -38,13 +63,14 @@ class BadOutput(RuntimeError):
 
 
 def check(passes: dict[str, np.ndarray], stage: str) -> None:
-    """Count non-finite and negative values in every array and fail loudly, naming the array and the stage
-    (e.g. ``method 'bidir', stage 'gather'``). Never zeroes anything: a bad value is a bug to fix, not to hide."""
+    """Count non-finite and negative values (but in ``SIGNED`` passes) in every array and fail loudly, naming the
+    array and the stage (e.g. ``method 'bidir', stage 'gather'``). Never zeroes anything: a bad value is a bug to fix,
+    not to hide."""
     problems = []
     for name, image in passes.items():
         image = np.asarray(image)
         nonfinite = int((~np.isfinite(image)).sum())
-        negative = int((image < 0).sum())
+        negative = 0 if name in SIGNED else int((image < 0).sum())
         if nonfinite or negative:
             problems.append(f"{name}: {nonfinite} non-finite, {negative} negative values")
     if problems:

@@ -68,10 +68,13 @@ class Materials:
     maps: list[TextureMap] = field(default_factory=list)
     map_of: dict[str, np.ndarray] = field(default_factory=dict)  # input -> (M,) int index into maps, -1 none
     transmission: np.ndarray | None = None  # (M,) Transmission Weight (Glass BSDF: 1); None: 0 everywhere
+    pass_index: np.ndarray | None = None  # (M,) int Pass Index (the Material Index pass); None: 0 everywhere
 
     def __post_init__(self):
         if self.transmission is None:
             self.transmission = np.zeros(len(self.names), np.float32)
+        if self.pass_index is None:
+            self.pass_index = np.zeros(len(self.names), np.int32)
 
     @property
     def glass(self) -> np.ndarray:
@@ -82,10 +85,10 @@ class Materials:
     @staticmethod
     def make(rows: list[dict]) -> "Materials":
         """Rows of {name, base_color, roughness, metallic, emission, specular_tint, ior, specular, alpha,
-        transmission, maps}
+        transmission, pass_index, maps}
         (``maps``: input name -> TextureMap; ``texture``: an image index for Base Color alone); missing keys take
         defaults: a grey diffuse without a specular layer."""
-        rows = [{"name": "VPL fallback grey"}] + list(rows)
+        rows = [{"name": "default_surface"}] + list(rows)  # Cycles' name of its fallback (in Cryptomatte)
         maps: list[TextureMap] = []
         map_of = {name: np.full(len(rows), -1, np.int32) for name in INPUTS}
         for i, r in enumerate(rows):
@@ -114,6 +117,7 @@ class Materials:
             alpha=col("alpha", 1.0),
             maps=maps, map_of=map_of,
             transmission=col("transmission", 0.0),
+            pass_index=col("pass_index", 0, np.int32),
         )
         for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha,
                   m.transmission):
@@ -189,11 +193,23 @@ class Scene:
     # triangle's material reads (Color Attribute node); None when no material reads one
     dropped: dict[str, int] = field(default_factory=dict)  # object name -> triangles dropped by build()
     max_bounces: int = 8  # diffuse bounce limit of light paths (Cycles' min(max_bounces, diffuse_bounces))
+    # per object: its Pass Index (the Object Index pass) and its asset, an index into asset_names (the name of its
+    # outermost parent, Cryptomatte's asset); None: 0 and the object itself
+    object_pass_index: np.ndarray | None = None
+    object_asset: np.ndarray | None = None
+    asset_names: list[str] | None = None
+
+    def __post_init__(self):
+        if self.object_pass_index is None:
+            self.object_pass_index = np.zeros(len(self.object_names), np.int32)
+        if self.object_asset is None:
+            self.object_asset, self.asset_names = np.arange(len(self.object_names)), list(self.object_names)
 
     @staticmethod
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
               object_id=None, object_names=None, world=(0.0, 0.0, 0.0), environment=None, textures=(),
-              tangents=None, colors=None, max_bounces=8) -> "Scene":
+              tangents=None, colors=None, max_bounces=8, object_pass_index=None, object_asset=None,
+              asset_names=None) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         n = len(tri)
@@ -251,7 +267,10 @@ class Scene:
                      textures=textures, dropped=dropped,
                      tangents=None if tangents is None else tangents.astype(np.float32),
                      colors=None if colors is None else colors.astype(np.float32),
-                     max_bounces=max(0, int(max_bounces)))
+                     max_bounces=max(0, int(max_bounces)),
+                     object_pass_index=None if object_pass_index is None else np.asarray(object_pass_index, np.int32),
+                     object_asset=None if object_asset is None else np.asarray(object_asset, np.int64),
+                     asset_names=asset_names)
 
     @property
     def geometric_normals(self) -> np.ndarray:

@@ -16,6 +16,14 @@ from ..core.sampling import group_sum, stratified_2d
 from ..materials.surface import Surface, shade
 
 
+def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray):
+    """The unit directions of the camera's rays through image positions (px, py) and what they hit between the clip
+    distances."""
+    origins, dirs, near = cam.rays(px, py)
+    origins = origins + dirs * near[:, None]
+    return dirs, tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
+
+
 @dataclass
 class GBuffer:
     pixels: np.ndarray  # (P,) flat pixel indices (row-major, row 0 at the top) covered by this block
@@ -33,9 +41,7 @@ class GBuffer:
         pix = np.repeat(pixels, spp)
         px = (pix % cam.width) + 0.5 + cam.filter_offsets(u.ravel())
         py = (pix // cam.width) + 0.5 + cam.filter_offsets(v.ravel())
-        origins, dirs, near = cam.rays(px, py)
-        origins = origins + dirs * near[:, None]
-        hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
+        dirs, hits = camera_hits(cam, tracer, px, py)
         sample = np.nonzero(hits.hit)[0]
         missed = np.nonzero(~hits.hit)[0]
         return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
