@@ -3,9 +3,20 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-EMBREEX_WHEEL := embreex-4.4.0.post1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
-SCIPY_WHEEL := scipy-1.17.1-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
-WHEELS := wheels/$(EMBREEX_WHEEL) wheels/$(SCIPY_WHEEL)
+# Runtime wheels bundled into the extension, one set per platform of blender_manifest.toml (cp311: Blender 4.2-5.0
+# bundle Python 3.11 and numpy). embreex 4.4 has macOS wheels for 13.0 or newer only; scipy's are the widest ones that
+# pip picks for macOS 13 (OpenBLAS builds, not the macOS 14 Accelerate ones).
+EMBREEX_VERSION := 4.4.0.post1
+SCIPY_VERSION := 1.17.1
+WHEELS_LINUX_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl \
+	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
+WHEELS_WINDOWS_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-win_amd64.whl \
+	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-win_amd64.whl
+WHEELS_MACOS_ARM64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-macosx_13_0_arm64.whl \
+	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-macosx_12_0_arm64.whl
+WHEELS_MACOS_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-macosx_13_0_x86_64.whl \
+	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-macosx_10_14_x86_64.whl
+WHEELS := $(WHEELS_LINUX_X64) $(WHEELS_WINDOWS_X64) $(WHEELS_MACOS_ARM64) $(WHEELS_MACOS_X64)
 DEMO_SCENE := example_blends/cornell_area.blend
 
 .PHONY: venv test test-all demo wheels extension examples scenes bench clean
@@ -18,14 +29,22 @@ $(STAMP): requirements.txt
 	$(BIN)/python -m pip install --quiet -r requirements.txt
 	touch $@
 
-# Runtime wheels bundled into the extension (fetched, never committed).
+# The wheels of every platform (fetched, never committed): pip picks, for the given platform tag, the files named above;
+# `ls` fails if it picked others (a new upload), so the manifest's list and these names must then be updated together.
 wheels: $(WHEELS)
 
-$(WHEELS) &: | $(STAMP)
-	mkdir -p wheels
-	$(BIN)/python -m pip download --quiet --no-deps --only-binary=:all: --python-version 3.11 \
-		--implementation cp --platform manylinux_2_28_x86_64 -d wheels embreex==4.4.0.post1 scipy==1.17.1
-	test -f wheels/$(EMBREEX_WHEEL) && test -f wheels/$(SCIPY_WHEEL)
+fetch_wheels = mkdir -p wheels && $(BIN)/python -m pip download --quiet --no-deps --only-binary=:all: \
+	--python-version 3.11 --implementation cp --platform $(1) -d wheels \
+	embreex==$(EMBREEX_VERSION) scipy==$(SCIPY_VERSION) && ls $(2) >/dev/null
+
+$(WHEELS_LINUX_X64) &: | $(STAMP)
+	$(call fetch_wheels,manylinux_2_28_x86_64,$(WHEELS_LINUX_X64))
+$(WHEELS_WINDOWS_X64) &: | $(STAMP)
+	$(call fetch_wheels,win_amd64,$(WHEELS_WINDOWS_X64))
+$(WHEELS_MACOS_ARM64) &: | $(STAMP)
+	$(call fetch_wheels,macosx_13_0_arm64,$(WHEELS_MACOS_ARM64))
+$(WHEELS_MACOS_X64) &: | $(STAMP)
+	$(call fetch_wheels,macosx_13_0_x86_64,$(WHEELS_MACOS_X64))
 
 test: $(STAMP) $(WHEELS)
 	$(BIN)/python -m pytest
@@ -38,12 +57,17 @@ demo: $(STAMP)
 	mkdir -p out
 	$(BIN)/python -m vpl_addon render $(DEMO_SCENE) -o out/demo.exr --overwrite
 
-# The installable extension zip, built and validated by the tool that ships inside the bpy wheel.
+# One installable zip per platform of the manifest, dist/vpl_gi-<version>-<platform>.zip (linux_x64, windows_x64,
+# macos_arm64, macos_x64), each with only its platform's wheels, built and validated by the tool that ships inside the
+# bpy wheel.
 BLENDER_EXT := $(VENV)/lib/python3.11/site-packages/bpy/5.0/scripts/addons_core/bl_pkg/cli/blender_ext.py
+VERSION_AND_PLATFORMS = $(shell $(BIN)/python -c 'import tomllib; m = tomllib.load(open("blender_manifest.toml", "rb")); \
+	print(m["version"], *(p.replace("-", "_") for p in m["platforms"]))')
 extension: $(STAMP) $(WHEELS)
 	mkdir -p dist
-	$(BIN)/python $(BLENDER_EXT) build --source-dir . --output-dir dist
-	$(BIN)/python $(BLENDER_EXT) validate dist/vpl_gi-$$(sed -n 's/^version = "\(.*\)"/\1/p' blender_manifest.toml).zip
+	$(BIN)/python $(BLENDER_EXT) build --split-platforms --source-dir . --output-dir dist
+	for platform in $(wordlist 2,99,$(VERSION_AND_PLATFORMS)); do \
+		$(BIN)/python $(BLENDER_EXT) validate dist/vpl_gi-$(word 1,$(VERSION_AND_PLATFORMS))-$$platform.zip || exit 1; done
 
 examples: $(STAMP)
 	$(BIN)/python example_blends/make_examples.py

@@ -1,17 +1,31 @@
-"""The extension as Blender users get it: built and validated by Blender's own tool (shipped in the bpy wheel),
-installed into a throw-away user repository, enabled, and rendering a scene through the installed copy."""
+"""The extension as Blender users get it: one zip per platform built (--split-platforms) and validated by Blender's
+own tool (shipped in the bpy wheel), each with only its platform's wheels; the Linux one installed into a throw-away
+user repository, enabled, and rendering a scene through the installed copy."""
 import importlib.util
 import os
 import pathlib
+import re
 import subprocess
 import sys
 import textwrap
+import tomllib
+import zipfile
 
 import pytest
 
 from conftest import EXAMPLES, ROOT
 
 pytestmark = pytest.mark.blender
+
+# The platforms the extension ships for, and the wheel platform tags (the last field of a wheel's file name, its
+# dot-separated parts) that belong in each platform's zip.
+PLATFORM_WHEEL_TAGS = {
+    "linux-x64": r"manylinux_\d+_\d+_x86_64",
+    "windows-x64": r"win_amd64",
+    "macos-arm64": r"macosx_\d+_\d+_arm64",
+    "macos-x64": r"macosx_\d+_\d+_x86_64",
+}
+BUNDLED = ["embreex", "scipy"]
 
 INSTALL_AND_RENDER = textwrap.dedent("""
     import sys, bpy
@@ -50,16 +64,32 @@ def run(*args, env=None):
 def test_extension_builds_validates_installs_and_renders(tmp_path):
     from vpl_addon.core.exr import read_passes
     tool = blender_ext_tool()
-    missing = [w for w in ("wheels",) if not (ROOT / w).is_dir()]
-    assert not missing, "run `make wheels` first: the extension bundles the embreex and scipy wheels"
+    manifest = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    assert sorted(manifest["platforms"]) == sorted(PLATFORM_WHEEL_TAGS)
+    missing = [w for w in manifest["wheels"] if not (ROOT / w).is_file()]
+    assert not missing, f"run `make wheels` first: the extension bundles the embreex and scipy wheels; missing {missing}"
     dist = tmp_path / "dist"
     dist.mkdir()
-    run(tool, "build", "--source-dir", ROOT, "--output-dir", dist)
-    (zip_path,) = dist.glob("vpl_gi-*.zip")
-    assert "Success" in run(tool, "validate", zip_path)
+    run(tool, "build", "--split-platforms", "--source-dir", ROOT, "--output-dir", dist)
+    zips = {platform: dist / f"vpl_gi-{manifest['version']}-{platform.replace('-', '_')}.zip"
+            for platform in manifest["platforms"]}
+    assert sorted(dist.iterdir()) == sorted(zips.values())
+    for platform, zip_path in zips.items():
+        assert "Success" in run(tool, "validate", zip_path)
+        with zipfile.ZipFile(zip_path) as archive:
+            names = archive.namelist()
+            generated = tomllib.loads(archive.read("blender_manifest.toml").decode())["build"]["generated"]
+        assert not [n for n in names if n == ".git" or n.startswith((".git/", "tests/"))], "the checkout leaked in"
+        wheels = sorted(pathlib.PurePosixPath(n).name for n in names if n.endswith(".whl"))
+        assert [w.split("-")[0] for w in wheels] == BUNDLED, (platform, wheels)
+        for wheel in wheels:
+            tags = wheel.removesuffix(".whl").split("-")[-1].split(".")
+            assert all(re.fullmatch(PLATFORM_WHEEL_TAGS[platform], t) for t in tags), (platform, wheel)
+        assert generated["platforms"] == [platform]
+        assert sorted(pathlib.PurePosixPath(w).name for w in generated["wheels"]) == wheels
     user = tmp_path / "user"
     out = tmp_path / "render.exr"
-    stdout = run("-c", INSTALL_AND_RENDER, zip_path, EXAMPLES / "cornell_area.blend", out,
+    stdout = run("-c", INSTALL_AND_RENDER, zips["linux-x64"], EXAMPLES / "cornell_area.blend", out,
                  env={"BLENDER_USER_EXTENSIONS": str(user / "extensions"), "BLENDER_USER_CONFIG": str(user / "config")})
     engine_file = next(l.split(" ", 1)[1] for l in stdout.splitlines() if l.startswith("ENGINE_FILE"))
     assert engine_file.startswith(str(user)), "the render must run the installed copy, not the checkout"
