@@ -134,3 +134,41 @@ def test_depth_position_and_indexes_are_cycles_under_the_default_filter(ext, tmp
     assert hit.sum() > 0.8 * 48 * 48 and np.array_equal(hit, ours["Depth"][..., 0] < 1e10)
     for name in ("Depth", "Position", "Object Index"):
         assert np.abs(ours[name] - cycles[name])[hit].max() < 1e-3, name
+
+
+def test_every_pass_switched_on_is_written_or_named_in_one_warning(ext, tmp_path):
+    """All of Blender's and Cycles' pass toggles on, an AOV and a light group: each toggle either gives its pass in
+    the file or its name appears in the one warning about passes."""
+    import bpy
+
+    from conftest import ROOT
+    from vpl_gi.operators import engine
+    from vpl_gi.operators.output import render_to
+    from vpl_gi.vpl_addon.core.exr import read_passes
+
+    bpy.ops.wm.open_mainfile(filepath=str(ROOT / "example_blends" / "cornell_area.blend"))
+    scene = bpy.context.scene
+    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+    scene.render.resolution_x = scene.render.resolution_y = 8
+    scene.vpl_gi.method, scene.vpl_gi.samples, scene.vpl_gi.light_samples = "none", 1, 1
+    layer = scene.view_layers[0]
+    toggles = [(layer, p) for p in layer.bl_rna.properties if p.identifier.startswith("use_pass_")]
+    toggles += [(layer.cycles, p) for p in layer.cycles.bl_rna.properties if p.identifier != "use_denoising"]
+    toggles = [(owner, p) for owner, p in toggles if p.type == "BOOLEAN" and not p.is_readonly]
+    for owner, prop in toggles:
+        setattr(owner, prop.identifier, True)
+    layer.aovs.add().name = "Dirt"
+    layer.lightgroups.add(name="Key")
+    render_to(scene, str(tmp_path / "all.exr"))
+    written = read_passes(str(tmp_path / "all.exr"))[0]
+    warnings = [m for level, m in engine.LAST_REPORTS if level == "WARNING" and "passes" in m]
+    assert len(warnings) == 1, engine.LAST_REPORTS
+    pass_of = {toggle: name for name, toggle, _, _ in engine.PASS_TOGGLES}
+    pass_of.update({toggle: f"{kind}00" for kind, toggle in engine.CRYPTOMATTE_TOGGLES.items()})
+    pass_of.update(use_pass_combined="Combined", use_pass_cryptomatte_accurate="CryptoObject00")  # not a pass
+    for owner, prop in toggles:
+        assert pass_of.get(prop.identifier) in written or prop.name in warnings[0], prop.identifier
+    assert "AOV 'Dirt'" in warnings[0] and "light group 'Key'" in warnings[0]
+    for name in ("Vector", "UV", "Shadow", "Transmission Direct", "Volume Direct", "Shadow Catcher"):
+        assert name in warnings[0]
+    assert all(name in written for name in pass_of.values())
