@@ -129,8 +129,19 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self.update_stats("VPL GI", f"{text} {fraction * 100:.0f}%")
             return not self.test_break()
 
+        bands = []
+
+        def shown(row, band):
+            """A band of finished rows on screen at once, as Cycles shows its tiles (Blender's rows go up)."""
+            rows, width = band.shape[:2]
+            tile = self.begin_result(0, built.camera.pixel_region[3] - row - rows, width, rows, layer=view_layer.name)
+            tile.layers[0].passes.find_by_name(P.COMBINED, "").rect.foreach_set(
+                np.ascontiguousarray(band[::-1]).reshape(-1))
+            self.end_result(tile)
+            bands.append(rows)
+
         try:
-            result = render(built, settings, progress, sequence=sequence)
+            result = render(built, settings, progress, sequence=sequence, shown=shown)
         except Cancelled:
             self._report("INFO", "render cancelled")
             return
@@ -147,7 +158,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
                               "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds})
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
-                          method=settings.method, info=result.info)
+                          method=settings.method, info=result.info, bands_shown=len(bands))
         self._write(view_layer.name, result.passes, _cryptomatte_metadata(view_layer.name, passes, built))
 
     def _write(self, layer_name, images, metadata):

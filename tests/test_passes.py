@@ -15,6 +15,7 @@ from vpl_addon.lights import SunLight
 from vpl_addon.methods import MethodSettings
 from vpl_addon.render import RenderSettings, render
 
+FOX = "The quick brown fox jumps over the lazy dog"  # MurmurHash3_x86_32 0x2e4ff723, a known vector
 VIEW = 0.05  # 5 cm seen by 5 x 5 pixels: the light hardly changes from pixel to pixel
 
 
@@ -50,3 +51,35 @@ def test_light_passes_are_divided_by_the_diffuse_color():
     # the passes still compose the image: (direct + indirect) x colour
     composed = (out[P.DIFFUSE_DIRECT] + out[P.DIFFUSE_INDIRECT]) * out[P.DIFFUSE_COLOR]
     assert np.allclose(out[P.COMBINED][..., :3], composed, rtol=1e-4, atol=1e-6)
+
+
+@pytest.mark.parametrize("region", [None, (3, 5, 9, 7)])
+def test_finished_rows_are_shown_once_in_order_as_the_final_combined(region):
+    """Progressive display: ``shown`` gets bands of output rows, each once, top to bottom, as soon as their blocks
+    are done; without indirect light (method none) a band is already the final Combined; with a render border the
+    bands are the border's rows."""
+    from dataclasses import replace
+    scene = plane_scene([SunLight("sun", [0.3, 0.2, -1.0], [2.0] * 3)], world=(0.1, 0.2, 0.3), res=24, view=30.0)
+    scene.camera = replace(scene.camera, region=region)
+    bands = []
+    settings = RenderSettings(samples=4, light_samples=1, method="none", block_pixels=10, film_transparent=False)
+    final = render(scene, settings, shown=lambda row, band: bands.append((row, band.copy()))).passes[P.COMBINED]
+    rows = [row for row, _ in bands]
+    assert rows == sorted(rows) and len(bands) > 5
+    shown = np.concatenate([band for _, band in bands])
+    assert rows[0] == 0 and shown.shape == final.shape and np.array_equal(shown, final)
+
+
+def test_cryptomatte_ids_ranks_and_manifest():
+    """MurmurHash3 as the Cryptomatte specification and Cycles compute it (hashes of Cycles' own manifest of the
+    Cornell box), floats never NaN, infinite or denormal, and per pixel the names by falling coverage."""
+    from vpl_addon.core import cryptomatte
+    assert [f"{cryptomatte.name_hash(n):08x}" for n in ("Floor", "TallBox", "default_surface", "", FOX)] == \
+        ["6a2fb16e", "501aadcd", "78d05529", "00000000", "2e4ff723"]
+    assert cryptomatte.header("ViewLayer.CryptoObject", ["Floor"])["cryptomatte/542cafa/manifest"] == \
+        '{"Floor":"6a2fb16e"}'
+    ids = cryptomatte.ids([str(i) for i in range(5000)])
+    assert np.isfinite(ids).all() and (np.abs(ids) >= np.finfo(np.float32).tiny).all()
+    pairs = cryptomatte.ranked(np.array([0, 0, 0, 1, 1, 1, 1]), np.array([2, 1, 1, 0, 2, 2, 0]), 0.25, 3, 2,
+                               np.array([10.0, 11.0, 12.0]))
+    assert pairs.tolist() == [[11.0, 0.5, 12.0, 0.25], [10.0, 0.5, 12.0, 0.5], [0.0, 0.0, 0.0, 0.0]]

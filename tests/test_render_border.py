@@ -33,11 +33,11 @@ def _uniform(image):
     return (np.abs(window - image[ROWS, COLS][None]).max(axis=(0, 3)) < 1e-6) & (image[ROWS, COLS].max(2) > 0)
 
 
-def _cube_on_a_floor(bpy):
+def _cube_on_a_floor(bpy, size=(32, 24)):
     from mathutils import Vector
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 32, 24
+    scene.render.resolution_x, scene.render.resolution_y = size
     add_mesh(bpy, "Floor", [(-3, -3, 0), (3, -3, 0), (3, 3, 0), (-3, 3, 0)], [(0, 1, 2, 3)])
     c = [(x, y, z) for x in (-0.6, 0.6) for y in (-0.6, 0.6) for z in (0.0, 1.2)]
     blue = shader_material(bpy, "Blue", "ShaderNodeBsdfDiffuse", {"Color": (0.2, 0.4, 0.8, 1.0)})
@@ -50,11 +50,11 @@ def _cube_on_a_floor(bpy):
     return scene
 
 
-def _render(bpy, tmp_path, name, border=None, crop=False, **settings):
+def _render(bpy, tmp_path, name, border=None, crop=False, size=(32, 24), **settings):
     from vpl_gi.operators import engine
     from vpl_gi.operators.output import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
-    scene = _cube_on_a_floor(bpy)
+    scene = _cube_on_a_floor(bpy, size)
     scene.render.engine = engine.VPLGIRenderEngine.bl_idname
     layer = scene.view_layers[0]
     layer.use_pass_diffuse_direct = layer.use_pass_diffuse_indirect = layer.use_pass_diffuse_color = True
@@ -110,3 +110,15 @@ def test_the_indirect_methods_light_a_border_as_the_whole_frame(ext, tmp_path, m
     print(f"{method}: Diffuse Indirect mean of the border {border.mean():.4f}, of the frame there {full.mean():.4f}")
     assert np.isfinite(border).all() and border.mean() > 0.0
     assert border.mean() == pytest.approx(full.mean(), rel=tolerance)
+
+
+def test_f12_shows_each_finished_band_of_rows(ext, tmp_path):
+    """Progressive F12: a 128 x 96 frame is three blocks of 4096 pixels, so Blender is handed three bands of finished
+    rows before the whole result (each through begin_result / end_result, as Cycles' tiles); with a border, the
+    border's rows, in the border's result."""
+    import bpy
+    from vpl_gi.operators import engine
+    for border, size, bands in ((None, (128, 96), 3), (BORDER, (256, 192), 3)):
+        image = _render(bpy, tmp_path, "bands", border, crop=True, size=size, samples=1, light_samples=1)["Combined"]
+        assert engine.LAST_STATS["bands_shown"] == bands
+        assert image.shape[2] == 4 and image[..., 3].mean() > 0.5

@@ -6,7 +6,9 @@ the filter reads around it; the passes are the region's size. Pixels are process
 cores, so memory stays flat at any resolution and sample count; each block draws its random numbers from ``(seed,
 block)`` so a render is deterministic (a border's blocks are not the frame's: its pixels are the frame's up to
 noise). ``progress(fraction, text)`` is called after each block and may return False to cancel (ESC in Blender),
-which raises ``Cancelled``.
+which raises ``Cancelled``; ``shown(row, rgba)``, if given, receives each band of output rows as soon as all its
+pixels are done (their Combined so far: direct light, emission and background; the filtered indirect light is added
+to the whole frame at the end), as Cycles shows its finished tiles.
 Work a pass does not need is skipped: no lights, no shadow rays and no VPLs; no ``Diffuse Indirect`` requested (or
 method "none"), no VPLs; no metallic material, nothing glossy; each data pass (``paths.data_passes``) only when
 asked for.
@@ -111,7 +113,7 @@ def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
 
 
 def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None,
-           sequence=None) -> RenderResult:
+           sequence=None, shown: Callable[[int, np.ndarray], None] | None = None) -> RenderResult:
     """One frame; ``sequence`` (a ``sequence.state.SequenceState``) carries the method's state from the previous
     frame."""
     result = RenderResult(passes={})
@@ -285,12 +287,27 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
                     "gather": marks["gather"] - marks["direct"]}
 
+        (x, y, _, _), (bx, by, bw, bh) = cam.pixel_region, scene.camera.pixel_region
+        border = (slice(by - y, by - y + bh), slice(bx - x, bx - x + bw))  # the filter's margin off
+        ready = 0  # output rows shown so far
+
+        def show(done_pixels: int):
+            """Hand ``shown`` the output rows that the blocks done so far complete."""
+            nonlocal ready
+            rows = min(done_pixels // w - border[0].start, bh)
+            if rows > ready:
+                band = images[P.COMBINED].reshape(h, w, 4)[border][ready:rows]
+                shown(ready, band.astype(np.float32))
+                ready = rows
+
         # one block more than cores: numpy's GIL-held moments of one block overlap another's embree and ufunc work
         # (living room, 2 cores: 1.8 cores busy instead of 1.7)
         with ThreadPoolExecutor(tracer.threads + 1) as pool:
             for done, spent in enumerate(pool.map(shade_block, range(len(starts))), start=1):
                 for stage, seconds in spent.items():
                     timing[stage] += seconds
+                if shown is not None and not cancelled.is_set():  # blocks end in order: all before this are done
+                    show(min(done * settings.block_pixels, w * h))
                 if progress is not None and progress(done / len(starts), "rendering") is False:
                     cancelled.set()
         if cancelled.is_set():
@@ -326,8 +343,6 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         images[P.DIFFUSE_INDIRECT] = indirect if glazed is None else indirect + glazed
     result.seconds.update(timing)
     result.rays, result.threads = tracer.rays_traced, tracer.threads
-    (x, y, _, _), (bx, by, bw, bh) = cam.pixel_region, scene.camera.pixel_region
-    border = (slice(by - y, by - y + bh), slice(bx - x, bx - x + bw))  # the filter's margin off
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}
     guard("output", result.passes)
