@@ -19,7 +19,7 @@ from vpl_addon.render import RenderSettings
 
 # every method that exists, so a method that lands later is stressed without touching this suite
 METHODS = ("none", *vpl_addon.methods.METHODS)
-ALL_PASSES = P.ALL
+ALL_PASSES = P.ALL + P.DATA + tuple(f"{kind}00" for kind in P.CRYPTOMATTE)
 
 # filled by the tests, printed by tests/conftest.py: distinct hostile scenes, renders, bad values seen
 RESULTS = {"scenes": set(), "renders": 0, "bad_values": 0}
@@ -30,8 +30,9 @@ BLACK = Materials.make([{"name": "black", "base_color": (0.0, 0.0, 0.0)}])
 
 
 def bad_values(result) -> int:
-    """Non-finite or negative values over all passes of a RenderResult."""
-    return sum(int((~np.isfinite(img)).sum() + (img < 0).sum()) for img in result.passes.values())
+    """Non-finite values over all passes of a RenderResult, and negative ones where a pass cannot have them."""
+    return sum(int((~np.isfinite(img)).sum() + (0 if name in P.SIGNED else (img < 0).sum()))
+               for name, img in result.passes.items())
 
 
 def tally(scene_name: str, result) -> int:

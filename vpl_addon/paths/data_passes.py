@@ -72,7 +72,7 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
                                    (P.MATERIAL_INDEX, lambda: scene.materials.pass_index[scene.material[prim]], 0.0)):
             if name in centred:
                 out[name] = np.full((count, P.CHANNELS[name]), empty)
-                out[name][at] = value().reshape(len(at), -1)
+                out[name][at] = value().reshape(len(at), P.CHANNELS[name])
     object_id = scene.object_id[surf.prim]
     if P.NORMAL in wanted:
         out[P.NORMAL] = gbuf.splat(surf.shading_normal)
