@@ -121,3 +121,14 @@ def test_the_render_runs_on_the_threads_blender_is_set_to(ext, tmp_path):
         scene.render.threads_mode, scene.render.threads = mode, 1
         render_to(scene, str(tmp_path / f"{mode}.exr"))
         assert engine.LAST_STATS["threads"] == expected, mode
+
+
+def test_the_passes_panel_shows_every_pass_the_engine_writes(ext):
+    """Each toggle the engine reads has its checkbox in the engine's Passes panel, and each checkbox is a view
+    layer setting (a wrong name would break the panel's drawing in Blender)."""
+    import bpy
+    from vpl_gi.operators import engine, panels
+    shown = [toggle for _, toggles in panels.VIEWLAYER_PT_vpl_gi_passes.GROUPS for toggle in toggles]
+    read = [toggle for _, toggle, _, _ in engine.PASS_TOGGLES] + list(engine.CRYPTOMATTE_TOGGLES.values())
+    assert sorted(shown) == sorted(read + ["pass_cryptomatte_depth"])
+    assert all(toggle in bpy.types.ViewLayer.bl_rna.properties for toggle in shown)
