@@ -65,16 +65,17 @@ def image_pixels(image, alpha: bool = False) -> np.ndarray | None:
     return np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
 
 
-def surface_node(material):
-    """The shader node feeding the active material output's Surface, or None without nodes."""
-    tree = material.node_tree
+def output_shader(owner, socket: str = "Surface"):
+    """The shader node feeding ``socket`` (Surface or Volume) of the active output of a material's or a world's node
+    tree, or None without nodes or without a shader there."""
+    tree = owner.node_tree
     if tree is None:
         return None
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
+    outputs = [n for n in tree.nodes if n.type in ("OUTPUT_MATERIAL", "OUTPUT_WORLD")]
     active = [n for n in outputs if n.is_active_output] or outputs
     if not active:
         return None
-    source = _source(active[0].inputs["Surface"])
+    source = _source(active[0].inputs[socket])
     return None if source is None else source.node
 
 
@@ -338,7 +339,7 @@ class MaterialTable:
 
     def _read(self, material) -> dict:
         row = {"name": material.name}
-        surface = surface_node(material)
+        surface = output_shader(material)
         if surface is None:
             row["base_color"] = tuple(material.diffuse_color)[:3]
             row["roughness"] = material.roughness
