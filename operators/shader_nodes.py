@@ -17,7 +17,8 @@ node groups. Anything else keeps the input's value, with one warning naming the 
 
 Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass (thin glass) and Emission shaders; a Mix Shader
 with a Transparent BSDF is an alpha cut-out of the other shader, an Add Shader of an Emission shader makes the other
-glow; other mixes and sums render their heavier (first) shader, with a warning.
+glow; other mixes and sums render their heavier (first) shader, with a warning. A Holdout shader renders black (its
+warning comes from ``unsupported``).
 """
 from __future__ import annotations
 
@@ -199,6 +200,7 @@ class MaterialTable:
         self.images: dict[int, list[str]] = {}  # material id -> names of the images it reads
         self.color_attribute: dict[int, str] = {}  # material id -> the colour attribute it reads ('' the default)
         self.warnings = warnings
+        self.holdouts: list[str] = []  # names of the materials rendering a Holdout shader (``unsupported`` warns)
         self._uv_names: list[str | None] = []  # of the material being read
         self._image_names: list[str] = []
         self._attributes: list[str] = []
@@ -375,6 +377,10 @@ class MaterialTable:
             return row
         if surface.type == "BSDF_GLOSSY":
             return self._glossy(material, surface, row)
+        if surface.type == "HOLDOUT":  # Cycles: a hole for the camera, a black absorber for every other ray
+            self.holdouts.append(material.name)
+            row["base_color"] = (0.0, 0.0, 0.0)
+            return row
         if surface.type == "MIX_SHADER":
             return self._mix(material, surface, row)
         if surface.type == "ADD_SHADER":
