@@ -2,7 +2,9 @@
 
 Reads the evaluated depsgraph, so modifiers, instances, curves and text arrive as triangles; objects that are
 hidden from render are not in a render depsgraph and are skipped. Bulk data goes through ``foreach_get`` into
-numpy. Anything the engine cannot represent is approximated with one warning that names the datablock.
+numpy. Anything the engine cannot represent is approximated with one warning that names the datablock; the features
+it does not render (portals, volumes, hair, point clouds, holdouts, ...) are left out or approximated by
+``unsupported``, one warning per case.
 """
 from __future__ import annotations
 
@@ -14,6 +16,7 @@ from ..vpl_addon.core.camera import Camera, view_window
 from ..vpl_addon.core.scene import Environment, Scene
 from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
 from .shader_nodes import MaterialTable, image_pixels
+from .unsupported import Unsupported
 from .world_bake import BakeError, baked_world
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
@@ -144,6 +147,14 @@ def _tangents(obj, mesh, materials: MaterialTable, slots: list[int], m: np.ndarr
     t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
     sign = _array(mesh.loops, "bitangent_sign", 1).astype(np.float64) * (-1.0 if mirrored else 1.0)
     return np.concatenate([t, sign[:, None]], axis=1)
+
+
+def _without(arrays, material_ids: list[int]):
+    """``arrays`` of ``_mesh_arrays`` without the triangles of ``material_ids`` (None when none is left)."""
+    if arrays is None or not material_ids:
+        return arrays
+    keep = ~np.isin(arrays[3], material_ids)
+    return tuple(None if a is None else a[keep] for a in arrays) if keep.any() else None
 
 
 def _light(obj, matrix, warnings):
@@ -345,9 +356,11 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     camera = camera_of(depsgraph.scene, depsgraph)
     materials = MaterialTable(warnings)
     parts, lights, objects = [], [], _Objects()
+    unsupported = Unsupported()
+    unsupported.scene(depsgraph)
     for inst in depsgraph.object_instances:
         obj = inst.object
-        if obj.hide_render:  # a render depsgraph has dropped these already; a viewport one has not
+        if obj.hide_render or unsupported.left_out(obj):  # a render depsgraph has dropped hidden objects already
             continue
         if obj.type == "LIGHT":
             light = _light(obj, inst.matrix_world, warnings)
@@ -358,8 +371,12 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
                 lights.append(light)
         elif obj.type in GEOMETRY_TYPES:
             arrays = _mesh_arrays(obj, inst.matrix_world, materials, objects.id_of(inst), warnings)
+            arrays = _without(arrays, unsupported.volume_faces(obj, materials))
             if arrays is not None:
                 parts.append(arrays)
+        else:
+            continue  # empties, cameras...: nothing of theirs renders
+        unsupported.instance(inst, materials)
     tangents = colors = None
     if parts:
         triangles, normals, uvs, material, object_id = (np.concatenate(a) for a in list(zip(*parts))[:5])
@@ -374,6 +391,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
     paths = depsgraph.scene.vpl_gi  # render settings: the original, not an evaluated copy
     bounces = min(paths.max_bounces, paths.diffuse_bounces)
     world, environment = _world(scene, warnings)
+    warnings += unsupported.warnings(materials)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(objects.names) or ["none"], world=world,
                         environment=environment, textures=materials.textures, tangents=tangents, colors=colors,

@@ -17,7 +17,8 @@ node groups. Anything else keeps the input's value, with one warning naming the 
 
 Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass (thin glass) and Emission shaders; a Mix Shader
 with a Transparent BSDF is an alpha cut-out of the other shader, an Add Shader of an Emission shader makes the other
-glow; other mixes and sums render their heavier (first) shader, with a warning.
+glow; other mixes and sums render their heavier (first) shader, with a warning. A Holdout shader renders black (its
+warning comes from ``unsupported``).
 """
 from __future__ import annotations
 
@@ -65,16 +66,17 @@ def image_pixels(image, alpha: bool = False) -> np.ndarray | None:
     return np.nan_to_num(rgb.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
 
 
-def surface_node(material):
-    """The shader node feeding the active material output's Surface, or None without nodes."""
-    tree = material.node_tree
+def output_shader(owner, socket: str = "Surface"):
+    """The shader node feeding ``socket`` (Surface or Volume) of the active output of a material's or a world's node
+    tree, or None without nodes or without a shader there."""
+    tree = owner.node_tree
     if tree is None:
         return None
-    outputs = [n for n in tree.nodes if n.type == "OUTPUT_MATERIAL"]
+    outputs = [n for n in tree.nodes if n.type in ("OUTPUT_MATERIAL", "OUTPUT_WORLD")]
     active = [n for n in outputs if n.is_active_output] or outputs
     if not active:
         return None
-    source = _source(active[0].inputs["Surface"])
+    source = _source(active[0].inputs[socket])
     return None if source is None else source.node
 
 
@@ -198,6 +200,7 @@ class MaterialTable:
         self.images: dict[int, list[str]] = {}  # material id -> names of the images it reads
         self.color_attribute: dict[int, str] = {}  # material id -> the colour attribute it reads ('' the default)
         self.warnings = warnings
+        self.holdouts: list[str] = []  # names of the materials rendering a Holdout shader (``unsupported`` warns)
         self._uv_names: list[str | None] = []  # of the material being read
         self._image_names: list[str] = []
         self._attributes: list[str] = []
@@ -338,7 +341,7 @@ class MaterialTable:
 
     def _read(self, material) -> dict:
         row = {"name": material.name}
-        surface = surface_node(material)
+        surface = output_shader(material)
         if surface is None:
             row["base_color"] = tuple(material.diffuse_color)[:3]
             row["roughness"] = material.roughness
@@ -374,6 +377,10 @@ class MaterialTable:
             return row
         if surface.type == "BSDF_GLOSSY":
             return self._glossy(material, surface, row)
+        if surface.type == "HOLDOUT":  # Cycles: a hole for the camera, a black absorber for every other ray
+            self.holdouts.append(material.name)
+            row["base_color"] = (0.0, 0.0, 0.0)
+            return row
         if surface.type == "MIX_SHADER":
             return self._mix(material, surface, row)
         if surface.type == "ADD_SHADER":
