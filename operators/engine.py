@@ -105,10 +105,18 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         scene = depsgraph.scene
         view_layer = depsgraph.view_layer
         t0 = time.perf_counter()
+
+        def told(text):
+            self.update_stats("VPL GI", text)
+            return not self.test_break()
+
         try:
-            built, warnings = extract(depsgraph)
+            built, warnings = extract(depsgraph, told)
         except ExtractionError as err:
             self._report("ERROR", str(err))
+            return
+        except Cancelled:
+            self._report("INFO", "render cancelled")
             return
         except Exception as err:  # a bug: one line in the UI and on the command line, never a traceback
             self._report("ERROR", _one_line(f"scene extraction failed ({type(err).__name__}: {err}); please report"))

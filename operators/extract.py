@@ -209,7 +209,7 @@ def _broken_light(obj, matrix, light) -> str | None:
     return None
 
 
-def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
+def _world(scene, warnings, progress=None) -> tuple[np.ndarray, Environment | None]:
     """(constant radiance, environment map or None) of the scene's world: a Background's constant colour or
     equirectangular Environment Texture read directly, any other tree as Cycles renders it (``world_bake``)."""
     world = scene.world
@@ -224,16 +224,16 @@ def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
         return np.zeros(3), None
     node = active[0].inputs["Surface"].links[0].from_node
     if node.type != "BACKGROUND":
-        return _baked(scene, world, warnings)
+        return _baked(scene, world, warnings, progress)
     color, strength = node.inputs["Color"], node.inputs["Strength"]
     constant = np.array(color.default_value[:3], np.float64) * strength.default_value
     if strength.is_linked:
-        return _baked(scene, world, warnings)
+        return _baked(scene, world, warnings, progress)
     if not color.is_linked:
         return constant, None
     source = color.links[0].from_node
     if source.type != "TEX_ENVIRONMENT" or source.projection != "EQUIRECTANGULAR" or source.image is None:
-        return _baked(scene, world, warnings)
+        return _baked(scene, world, warnings, progress)
     rgb = image_pixels(source.image)
     if rgb is None:
         warnings.append(f"world {world.name!r}: Environment Texture {source.name!r} has image "
@@ -245,11 +245,11 @@ def _world(scene, warnings) -> tuple[np.ndarray, Environment | None]:
     return (constant if environment is None else np.zeros(3)), environment
 
 
-def _baked(scene, world, warnings):
+def _baked(scene, world, warnings, progress):
     """(no constant, the map Cycles bakes of ``world`` at the scene's frame) for ``_world``; a black world with a
     warning when Cycles cannot bake it."""
     try:
-        image = baked_world(world, scene.frame_current)
+        image = baked_world(world, scene.frame_current, progress)
     except BakeError as err:
         warnings.append(f"world {world.name!r}: its node tree is read by letting Cycles render it, which failed "
                         f"({err}); the world is black")
@@ -349,8 +349,9 @@ class _Objects:
         return self.names[obj.name]
 
 
-def extract(depsgraph) -> tuple[Scene, list[str]]:
-    """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way."""
+def extract(depsgraph, progress=None) -> tuple[Scene, list[str]]:
+    """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way. ``progress(text)`` hears
+    of long steps (Cycles baking the world) and may return False to stop them: ``Cancelled``."""
     scene = depsgraph.scene_eval
     warnings: list[str] = []
     camera = camera_of(depsgraph.scene, depsgraph)
@@ -390,7 +391,7 @@ def extract(depsgraph) -> tuple[Scene, list[str]]:
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
     paths = depsgraph.scene.vpl_gi  # render settings: the original, not an evaluated copy
     bounces = min(paths.max_bounces, paths.diffuse_bounces)
-    world, environment = _world(scene, warnings)
+    world, environment = _world(scene, warnings, progress)
     warnings += unsupported.warnings(materials)
     built = Scene.build(triangles, materials.build(), lights, camera, normals=normals, uvs=uvs, material=material,
                         object_id=object_id, object_names=list(objects.names) or ["none"], world=world,

@@ -16,15 +16,20 @@ import os
 import subprocess
 import sys
 import tempfile
+import time
+from typing import Callable
 
 import bpy
 import numpy as np
+
+from ..vpl_addon.render import Cancelled
 
 WIDTH, HEIGHT = 1024, 512  # a texel is 0.35 degrees: Nishita's sun disc (0.545 degrees) spans about two
 SAMPLES = 16  # a smooth world (the sky without its sun disc): Diffuse Direct mean within 0.1 % of Cycles
 SUN_SAMPLES = 256  # a Sky Texture's sun disc covers a few texels, lit by few of 16 samples: 2-3 % of its light off
 # at 16 or 64 samples, 0.5 % at 256 (mean Diffuse Direct against Cycles, tests/test_world_bake.py)
 TIMEOUT = 300.0  # seconds
+POLL = 0.1  # seconds between two looks at the user's ESC while Cycles bakes
 
 _SCRIPT = """
 import sys, bpy, numpy as np
@@ -65,9 +70,10 @@ def cache_dir() -> str:
     return os.path.join(root, "worlds")
 
 
-def baked_world(world, frame: int) -> np.ndarray:
+def baked_world(world, frame: int, progress: Callable[[str], bool] | None = None) -> np.ndarray:
     """(HEIGHT, WIDTH, 3) float32 linear radiance of ``world`` (an evaluated or original datablock) as Cycles
-    renders it at ``frame``, rows from the bottom; from the cache when this tree was baked before."""
+    renders it at ``frame``, rows from the bottom; from the cache when this tree was baked before. While Cycles bakes,
+    ``progress(text)`` is told so every ``POLL`` seconds and may return False to stop it (ESC): ``Cancelled``."""
     samples = SUN_SAMPLES if _has_sun_disc(world.node_tree, set()) else SAMPLES
     digest = world_digest(world)
     path = os.path.join(cache_dir(), f"{digest}.npy")
@@ -82,17 +88,39 @@ def baked_world(world, frame: int) -> np.ndarray:
         original = world.original
         bpy.data.libraries.write(library, {original}, path_remap="ABSOLUTE", fake_user=True)
         command = _blender() + ["--", library, original.name, out, str(frame), str(WIDTH), str(HEIGHT), str(samples)]
-        try:
-            done = subprocess.run(command, capture_output=True, text=True, timeout=TIMEOUT)
-        except (OSError, subprocess.TimeoutExpired) as err:
-            raise BakeError(f"Cycles did not start or finish ({type(err).__name__})") from err
-        if done.returncode != 0 or not os.path.exists(out + ".npy"):
-            last = (done.stderr.strip().splitlines() or ["no message"])[-1]
+        returncode, stderr = _run(command, samples, progress)
+        if returncode != 0 or not os.path.exists(out + ".npy"):
+            last = (stderr.strip().splitlines() or ["no message"])[-1]
             raise BakeError(f"Cycles failed ({last})")
         image = np.load(out + ".npy")
     np.save(path + ".partial.npy", image)
     os.replace(path + ".partial.npy", path)  # never a half-written cache file under the final name
     return image
+
+
+def _run(command: list[str], samples: int, progress) -> tuple[int, str]:
+    """Run the bake, telling ``progress`` and stopping when it says so or after ``TIMEOUT``; (exit code, stderr)."""
+    try:
+        process = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+    except OSError as err:
+        raise BakeError(f"Cycles did not start ({err})") from err
+    start = time.monotonic()
+    try:
+        while True:
+            try:
+                _, stderr = process.communicate(timeout=POLL)
+                return process.returncode, stderr
+            except subprocess.TimeoutExpired:
+                seconds = time.monotonic() - start
+                if progress is not None and progress(f"baking the world with Cycles ({samples} samples, "
+                                                     f"{seconds:.0f} s; once per world)") is False:
+                    raise Cancelled()
+                if seconds > TIMEOUT:
+                    raise BakeError(f"Cycles did not finish in {TIMEOUT:.0f} s")
+    finally:
+        if process.poll() is None:
+            process.kill()
+            process.communicate()
 
 
 def _blender() -> list[str]:

@@ -78,3 +78,18 @@ def sky_blend(tmp_path):
 def test_a_sky_texture_lights_the_scene_as_cycles_does(ext, tmp_path, world_cache):
     e_ours, e_cycles, stderr = direct_against_cycles("sky", sky_blend(tmp_path), tmp_path)
     assert_direct_as_cycles(e_ours, e_cycles, stderr)  # the sun's shadow of the box where Cycles puts it
+
+
+def test_esc_stops_the_bake_which_says_what_it_does_and_caches_nothing(ext, world_cache):
+    """While Cycles bakes, the engine's status line is told so (F12 shows it) and ESC stops the bake at once."""
+    import bpy
+    from vpl_gi.operators.extract import extract
+    from vpl_gi.vpl_addon.render import Cancelled
+    world, nodes, links = _world(bpy, "Sky to cancel")
+    links.new(nodes.new("ShaderNodeTexSky").outputs["Color"], nodes["Background"].inputs["Color"])
+    bpy.context.scene.camera = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    told = []
+    with pytest.raises(Cancelled):
+        extract(bpy.context.evaluated_depsgraph_get(), lambda text: bool(told.append(text)))  # False: ESC
+    assert len(told) == 1 and told[0].startswith("baking the world with Cycles (256 samples")
+    assert not list(world_cache.glob("*.npy"))
