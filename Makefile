@@ -16,6 +16,18 @@ WHEELS_MACOS_ARM64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-macosx_13_0_
 	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-macosx_12_0_arm64.whl
 WHEELS_MACOS_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-macosx_13_0_x86_64.whl \
 	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-macosx_10_14_x86_64.whl
+# The denoiser (issue 23): OpenImageDenoise's libraries in the pyoidn wheel, and its cffi binding (pycparser is pure)
+PYOIDN_VERSION := 2.5.1.0
+CFFI_VERSION := 2.1.1
+PYCPARSER := wheels/pycparser-3.12-py3-none-any.whl
+WHEELS_LINUX_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-manylinux2014_x86_64.whl \
+	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl $(PYCPARSER)
+WHEELS_WINDOWS_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-win_amd64.whl \
+	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-win_amd64.whl
+WHEELS_MACOS_ARM64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_12_0_arm64.whl \
+	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-macosx_11_0_arm64.whl
+WHEELS_MACOS_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_10_15_x86_64.whl \
+	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl
 WHEELS := $(WHEELS_LINUX_X64) $(WHEELS_WINDOWS_X64) $(WHEELS_MACOS_ARM64) $(WHEELS_MACOS_X64)
 DEMO_SCENE := example_blends/cornell_area.blend
 
@@ -34,11 +46,12 @@ $(STAMP): requirements.txt
 wheels: $(WHEELS)
 
 fetch_wheels = mkdir -p wheels && $(BIN)/python -m pip download --quiet --no-deps --only-binary=:all: \
-	--python-version 3.11 --implementation cp --platform $(1) -d wheels \
-	embreex==$(EMBREEX_VERSION) scipy==$(SCIPY_VERSION) && ls $(2) >/dev/null
+	--python-version 3.11 --implementation cp $(foreach tag,$(1),--platform $(tag)) -d wheels \
+	embreex==$(EMBREEX_VERSION) scipy==$(SCIPY_VERSION) pyoidn==$(PYOIDN_VERSION) cffi==$(CFFI_VERSION) \
+	pycparser==3.12 && ls $(2) >/dev/null
 
 $(WHEELS_LINUX_X64) &: | $(STAMP)
-	$(call fetch_wheels,manylinux_2_28_x86_64,$(WHEELS_LINUX_X64))
+	$(call fetch_wheels,manylinux_2_28_x86_64 manylinux2014_x86_64,$(WHEELS_LINUX_X64))
 $(WHEELS_WINDOWS_X64) &: | $(STAMP)
 	$(call fetch_wheels,win_amd64,$(WHEELS_WINDOWS_X64))
 $(WHEELS_MACOS_ARM64) &: | $(STAMP)

@@ -142,6 +142,7 @@ def _prepare_scene(args):
             setattr(settings, flag, getattr(args, flag))
     if args.no_filter:
         settings.filter = False
+    settings.denoise = bool(getattr(args, "denoise", False))
     if args.no_path_extension:
         settings.path_extension = False
     if getattr(args, "no_path_reuse", False):
@@ -303,6 +304,9 @@ def _render_flags(r) -> None:
     r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
     r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
     r.add_argument("--no-filter", action="store_true", help="skip the geometry-aware filter of the indirect light")
+    r.add_argument("--denoise", action="store_true",
+                   help="denoise Combined with OpenImageDenoise (F12's default; off here, so that Combined is the "
+                        "estimate the benchmark judges unless asked)")
     r.add_argument("--photons", type=int, help="vbnl: light paths traced for photon splitting")
     r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel")
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")

@@ -43,6 +43,7 @@ DATA_PASSES = (
 )
 PASS_TOGGLES = LIGHT_PASSES + DATA_PASSES
 # Cryptomatte kind -> its view layer toggle; the number of passes follows the view layer's Levels
+DENOISING_TOGGLE = "denoising_store_passes"  # view_layer.cycles: Denoising Albedo / Normal, Noisy Image
 CRYPTOMATTE_TOGGLES = {"CryptoObject": "use_pass_cryptomatte_object", "CryptoMaterial": "use_pass_cryptomatte_material",
                        "CryptoAsset": "use_pass_cryptomatte_asset"}
 
@@ -51,16 +52,20 @@ LAST_REPORTS: list[tuple[str, str]] = []
 LAST_STATS: dict = {}
 
 
-def requested_passes(view_layer) -> tuple[str, ...]:
+def requested_passes(view_layer, scene) -> tuple[str, ...]:
     names = [name for name, toggle, _, _ in PASS_TOGGLES if getattr(view_layer, toggle, False)]
     for kind, toggle in CRYPTOMATTE_TOGGLES.items():
         if getattr(view_layer, toggle, False):
             names += P.cryptomatte_passes(kind, view_layer.pass_cryptomatte_depth)
+    if getattr(getattr(view_layer, "cycles", None), DENOISING_TOGGLE, False):  # Cycles' Denoising Data
+        names += [P.DENOISING_ALBEDO, P.DENOISING_NORMAL] + [P.NOISY_IMAGE] * scene.vpl_gi.denoise  # Combined before
     return (P.COMBINED,) + tuple(names)
 
 
 def channel_ids(name: str) -> str:
     """Blender's channel names of a pass: ``RGBA`` of Combined and Cryptomatte, ``XYZ``... of the data passes."""
+    if name in (P.DENOISING_ALBEDO, P.DENOISING_NORMAL):
+        return "RGB" if name == P.DENOISING_ALBEDO else "XYZ"
     return next((ids for pass_name, _, _, ids in PASS_TOGGLES if pass_name == name), "RGBA")
 
 
@@ -69,7 +74,7 @@ def unwritten_passes(view_layer) -> list[str]:
     other pass toggles, Cycles' (its volume, shadow catcher, denoising and debug passes), shader AOVs and light
     groups."""
     ours = {toggle for _, toggle, _, _ in PASS_TOGGLES} | set(CRYPTOMATTE_TOGGLES.values()) | \
-        {"use_pass_combined", "use_pass_cryptomatte_accurate"}  # Combined always; Accurate is no pass
+        {"use_pass_combined", "use_pass_cryptomatte_accurate", DENOISING_TOGGLE}  # Combined always; Accurate is no pass
     toggles = [(view_layer, prop) for prop in view_layer.bl_rna.properties if prop.identifier.startswith("use_pass_")]
     cycles = getattr(view_layer, "cycles", None)  # None when Cycles is disabled
     if cycles is not None:
@@ -124,7 +129,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         t_extract = time.perf_counter() - t0
         for warning in warnings:
             self._report("WARNING", warning)
-        passes = requested_passes(view_layer)
+        passes = requested_passes(view_layer, scene)
         unwritten = unwritten_passes(view_layer)
         if unwritten:
             self._report("WARNING", f"view layer {view_layer.name!r}: VPL GI does not write these passes: "
@@ -198,7 +203,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
 
     def update_render_passes(self, scene=None, renderlayer=None):
         self.register_pass(scene, renderlayer, P.COMBINED, 4, "RGBA", "COLOR")
-        for name in requested_passes(renderlayer)[1:]:
+        for name in requested_passes(renderlayer, scene)[1:]:
             ids = channel_ids(name)
             kind = "COLOR" if ids.startswith("RGB") else "VECTOR" if len(ids) == 3 else "VALUE"
             self.register_pass(scene, renderlayer, name, P.CHANNELS[name], ids, kind)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import bpy
 
-from .engine import CRYPTOMATTE_TOGGLES, VPLGIRenderEngine
+from .engine import CRYPTOMATTE_TOGGLES, DENOISING_TOGGLE, VPLGIRenderEngine
 
 # Blender's own panels of the Light, Material and World tabs that show for this engine too: EEVEE's, whose polls read
 # their own COMPAT_ENGINES for external engines to join (Cycles' read one set shared by every Cycles panel)
@@ -60,6 +60,7 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
             sub.prop(settings, "clamp")
             sub.prop(settings, "interleave")
         sub.prop(settings, "filter")
+        layout.prop(settings, "denoise")
 
 
 class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
@@ -83,6 +84,8 @@ class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
             col = layout.column(heading=heading, align=True)
             for toggle in toggles:
                 col.prop(context.view_layer, toggle, text=labels[toggle].name.removeprefix(f"{heading} "))
+            if heading == "Data" and getattr(context.view_layer, "cycles", None) is not None:
+                col.prop(context.view_layer.cycles, DENOISING_TOGGLE, text="Denoising Data")
 
 
 class DATA_PT_vpl_gi_area_spread(_VPLGIPanel, bpy.types.Panel):

@@ -81,6 +81,10 @@ class VPLGISettings(bpy.types.PropertyGroup):
     filter: bpy.props.BoolProperty(
         name="Filter", default=_GATHER.filter,
         description="Geometry-aware filter that removes the interleaving pattern")
+    denoise: bpy.props.BoolProperty(
+        name="Denoise", default=True,
+        description="Denoise the finished image (Combined) with OpenImageDenoise, guided by the surfaces' albedo and "
+                    "normal, as Cycles' render denoiser does; the light passes stay as rendered")
     photons: bpy.props.IntProperty(
         name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
         description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother")
@@ -150,7 +154,7 @@ class VPLGISettings(bpy.types.PropertyGroup):
         mist = Mist() if world is None else Mist(world.mist_settings.start, world.mist_settings.depth,
                                                  MIST_FALLOFF[world.mist_settings.falloff])
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
-                              mist=mist, ao_distance=10.0 if world is None else world.light_settings.distance,
+                              mist=mist, denoise=self.denoise, ao_distance=10.0 if world is None else world.light_settings.distance,
                               film_transparent=self.id_data.render.film_transparent,
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
                               method=self.method, indirect_samples=self.indirect_samples, placement=placement,

@@ -165,7 +165,8 @@ def test_every_pass_switched_on_is_written_or_named_in_one_warning(ext, tmp_path
     assert len(warnings) == 1, engine.LAST_REPORTS
     pass_of = {toggle: name for name, toggle, _, _ in engine.PASS_TOGGLES}
     pass_of.update({toggle: f"{kind}00" for kind, toggle in engine.CRYPTOMATTE_TOGGLES.items()})
-    pass_of.update(use_pass_combined="Combined", use_pass_cryptomatte_accurate="CryptoObject00")  # not a pass
+    pass_of.update(use_pass_combined="Combined", use_pass_cryptomatte_accurate="CryptoObject00",  # not a pass
+                   denoising_store_passes="Denoising Albedo")
     for owner, prop in toggles:
         assert pass_of.get(prop.identifier) in written or prop.name in warnings[0], prop.identifier
     assert "AOV 'Dirt'" in warnings[0] and "light group 'Key'" in warnings[0]

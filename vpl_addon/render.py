@@ -31,6 +31,7 @@ from typing import Callable
 import numpy as np
 
 from .core import passes as P
+from .core.denoise import DenoiserMissing, denoise
 from .core.sampling import group_sum, stratified_2d
 from .core.tracer import Tracer
 from .gather.bilateral import deinterleave
@@ -66,6 +67,9 @@ class RenderSettings:
     # Film > Transparent: on, the background is 0 in Combined and alpha the coverage (the references' film); off
     # (Blender's default), Combined shows the world where camera rays miss, with alpha 1
     film_transparent: bool = True
+    # Combined denoised by OIDN (``core.denoise``) guided by Denoising Albedo / Normal, as Cycles' render denoiser;
+    # the light passes stay the estimates (as Cycles'), ``Noisy Image`` holds Combined before
+    denoise: bool = False
     threads: int | None = None  # CPU threads that trace and shade (None: every core); the pixels do not change
     mist: Mist = field(default_factory=Mist)  # the world's mist settings (the Mist pass)
     ao_distance: float = 10.0  # the world's AO distance (the Ambient Occlusion pass)
@@ -104,6 +108,23 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
     return np.where(color > 0.0, light / np.where(color > 0.0, color, 1.0), 0.0)
 
 
+def _denoised(images, h: int, w: int, settings: RenderSettings, progress, result: RenderResult) -> None:
+    """Combined's colour denoised in place (``core.denoise``); without OIDN on this system, one warning and the
+    image as it is."""
+    if progress is not None and progress(1.0, "denoising") is False:
+        raise Cancelled()
+    t0 = time.perf_counter()
+    combined = images[P.COMBINED]
+    try:
+        clean = denoise(combined[:, :3].reshape(h, w, 3), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
+                        images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads)
+    except DenoiserMissing as err:
+        result.warnings.append(f"{err}: the image is not denoised")
+        return
+    combined[:, :3] = clean.reshape(-1, 3)
+    result.seconds["denoise"] = time.perf_counter() - t0
+
+
 def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
     """World-space width of one pixel at the given points (perspective: grows with distance)."""
     size = (camera.window[1] - camera.window[0]) / camera.width
@@ -131,6 +152,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     result.seconds["build"] = time.perf_counter() - t0
 
     want = set(settings.passes) | {P.COMBINED}
+    if settings.denoise:
+        want |= {P.DENOISING_ALBEDO, P.DENOISING_NORMAL}
     need_glossy = scene.materials.glossy and bool((set(P.GLOSSY) | {P.COMBINED}) & want)
     need_direct = bool({P.DIFFUSE_DIRECT, P.GLOSSY_DIRECT, P.COMBINED} & want) and len(lights) > 0
     bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
@@ -280,6 +303,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         images[name][pixels] = image
             if P.EMIT in want:
                 images[P.EMIT][pixels] = gbuf.splat(surf.emission)
+            if P.DENOISING_ALBEDO in want:
+                images[P.DENOISING_ALBEDO][pixels] = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels]
             if data_wanted:
                 for name, image in data_passes(gbuf, scene, data_wanted, tracer, rng, settings.mist,
                                                settings.ao_distance).items():
@@ -342,6 +367,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     if P.DIFFUSE_INDIRECT in want:
         images[P.DIFFUSE_INDIRECT] = indirect if glazed is None else indirect + glazed
     result.seconds.update(timing)
+    if P.NOISY_IMAGE in want:
+        images[P.NOISY_IMAGE] = images[P.COMBINED].copy()
+    if settings.denoise:
+        _denoised(images, h, w, settings, progress, result)
     result.rays, result.threads = tracer.rays_traced, tracer.threads
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}

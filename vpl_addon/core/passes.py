@@ -16,7 +16,9 @@ the sum of the diffuse, glossy and emission parts, plus ``Environment`` when the
 The data passes describe what the camera sees, not light (``paths.data_passes``, with Cycles' meanings): ``Depth``
 (distance along the view axis, 1e10 where the pixel's first sample misses), ``Mist``, ``Normal``, ``Position``,
 ``Ambient Occlusion``, ``Object Index``, ``Material Index`` and the Cryptomatte passes ``CryptoObject00``,
-``CryptoMaterial00``, ``CryptoAsset00``... (two id-coverage ranks per RGBA pass, ``core.cryptomatte``).
+``CryptoMaterial00``, ``CryptoAsset00``... (two id-coverage ranks per RGBA pass, ``core.cryptomatte``). Cycles'
+Denoising Data: ``Denoising Albedo`` (Diffuse Color + Glossy Color), ``Denoising Normal`` (Normal in camera space:
+x right, y up, z forward) and, when the picture is denoised (``core.denoise``), ``Noisy Image``: Combined before.
 """
 from __future__ import annotations
 
@@ -38,6 +40,10 @@ POSITION = "Position"
 AO = "Ambient Occlusion"
 OBJECT_INDEX = "Object Index"
 MATERIAL_INDEX = "Material Index"
+# Cycles' Denoising Data: the denoiser's guides, and Combined before denoising
+DENOISING_ALBEDO = "Denoising Albedo"
+DENOISING_NORMAL = "Denoising Normal"
+NOISY_IMAGE = "Noisy Image"
 # Cryptomatte: a kind's passes are its name and a two-digit number (CryptoObject00, CryptoObject01, ...)
 CRYPTOMATTE = ("CryptoObject", "CryptoMaterial", "CryptoAsset")
 CRYPTOMATTE_PASSES = 8  # Blender's 16 levels at most, two per pass
@@ -47,10 +53,12 @@ CHANNELS = {COMBINED: 4, DIFFUSE_DIRECT: 3, DIFFUSE_INDIRECT: 3, DIFFUSE_COLOR: 
 GLOSSY = (GLOSSY_DIRECT, GLOSSY_INDIRECT, GLOSSY_COLOR)
 ALL = tuple(CHANNELS)  # the passes of light and colour
 DATA = (DEPTH, MIST, NORMAL, POSITION, AO, OBJECT_INDEX, MATERIAL_INDEX)
-CHANNELS.update({DEPTH: 1, MIST: 1, NORMAL: 3, POSITION: 3, AO: 3, OBJECT_INDEX: 1, MATERIAL_INDEX: 1})
+DENOISING = (DENOISING_ALBEDO, DENOISING_NORMAL, NOISY_IMAGE)
+CHANNELS.update({DEPTH: 1, MIST: 1, NORMAL: 3, POSITION: 3, AO: 3, OBJECT_INDEX: 1, MATERIAL_INDEX: 1,
+                 DENOISING_ALBEDO: 3, DENOISING_NORMAL: 3, NOISY_IMAGE: 4})
 CHANNELS.update({f"{kind}{number:02d}": 4 for kind in CRYPTOMATTE for number in range(CRYPTOMATTE_PASSES)})
 # passes whose values may be negative (coordinates, and Cryptomatte ids, which are hashes read as floats)
-SIGNED = {NORMAL, POSITION} | {name for name in CHANNELS if name.startswith(CRYPTOMATTE)}
+SIGNED = {NORMAL, POSITION, DENOISING_NORMAL} | {name for name in CHANNELS if name.startswith(CRYPTOMATTE)}
 
 
 def cryptomatte_passes(kind: str, levels: int) -> tuple[str, ...]:

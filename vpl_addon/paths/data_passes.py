@@ -7,7 +7,7 @@ As Cycles 5 writes them (measured on its passes):
   whatever the seed, Depth is exactly the view-axis distance of Position, and at a pixel whose samples partly miss
   Depth is 1e10 and Position 0 while Normal is the covered share of a unit normal.
 - ``Normal``: the mean over the pixel's samples of the shading normal (facing the ray's side, as Cycles flips back
-  faces), misses counting zero.
+  faces), misses counting zero; ``Denoising Normal`` the same in camera space (x right, y up, z forward: Cycles').
 - ``Mist``: one minus the mean over the samples of ``1 - m``, with ``m = clamp((d - start) / depth) ^ falloff`` for
   the hit's distance ``d`` from the camera (along its axis for an orthographic one) and the world's mist settings;
   a miss counts ``m = 1``.
@@ -74,8 +74,12 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
                 out[name] = np.full((count, P.CHANNELS[name]), empty)
                 out[name][at] = value().reshape(len(at), P.CHANNELS[name])
     object_id = scene.object_id[surf.prim]
-    if P.NORMAL in wanted:
-        out[P.NORMAL] = gbuf.splat(surf.shading_normal)
+    if P.NORMAL in wanted or P.DENOISING_NORMAL in wanted:
+        normal = gbuf.splat(surf.shading_normal)
+        if P.NORMAL in wanted:
+            out[P.NORMAL] = normal
+        if P.DENOISING_NORMAL in wanted:
+            out[P.DENOISING_NORMAL] = normal @ cam.to_world[:3, :3] * (1.0, 1.0, -1.0)
     if P.MIST in wanted:
         offset = surf.position - cam.position
         distance = np.abs(dot(offset, camera_axis)) if cam.orthographic else np.linalg.norm(offset, axis=1)

@@ -1,0 +1,67 @@
+"""The finished picture denoised with Intel Open Image Denoise (OIDN, through the ``pyoidn`` wheel), as Cycles'
+render denoiser does it: the "RT" filter on the HDR colour, guided by the first surfaces' albedo and normal.
+
+The guides are Cycles' ``Denoising Albedo`` (diffuse plus glossy colour) and ``Denoising Normal`` (the shading normal
+in camera space, x right, y up, z forward), per pixel the mean over its samples. They are nearly noise-free here (no
+path is traced for them), but texture detail and anti-aliased edges make them differ from sample to sample, so they
+are prefiltered by OIDN first, as its documentation recommends for guides that are not clean ("cleanAux").
+"""
+from __future__ import annotations
+
+import numpy as np
+
+
+class DenoiserMissing(RuntimeError):
+    """OIDN cannot be loaded on this system (the message says why)."""
+
+
+def _oidn():
+    try:
+        import pyoidn
+    except Exception as err:  # ImportError, or its shared library failing to load
+        raise DenoiserMissing(f"OpenImageDenoise is not available ({type(err).__name__}: {err})") from err
+    return pyoidn
+
+
+def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None = None) -> np.ndarray:
+    """(H,W,3) float32 denoised HDR ``color`` (linear, non-negative) guided by ``albedo`` and ``normal`` (H,W,3),
+    which are prefiltered; on ``threads`` CPU threads (None: OIDN's choice, every core)."""
+    oidn = _oidn()
+    device = oidn.Device(oidn.OIDN_DEVICE_TYPE_CPU)
+    if threads:
+        device.set_int("numThreads", int(threads))
+    device.commit()
+    try:
+        clean = {}
+        for name, image in (("albedo", albedo), ("normal", normal)):
+            clean[name] = _filtered(oidn, device, {name: _float3(image)})
+        return _filtered(oidn, device, {"color": _float3(color), **clean}, hdr=True, clean_aux=True)
+    finally:
+        device.release()
+
+
+def _float3(image: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(np.nan_to_num(np.asarray(image, np.float32)[..., :3], nan=0.0, posinf=0.0))
+
+
+def _filtered(oidn, device, images: dict[str, np.ndarray], **flags) -> np.ndarray:
+    """One RT filter run on ``images`` (OIDN input names: color, albedo, normal); its output has the shape of the
+    first. A guide given alone is denoised itself (OIDN's prefiltering of auxiliary images)."""
+    first = next(iter(images.values()))
+    height, width = first.shape[:2]
+    out = np.zeros_like(first)
+    rt = oidn.Filter(device, "RT")
+    try:
+        for name, image in images.items():
+            rt.set_image(name, image, oidn.OIDN_FORMAT_FLOAT3, width, height)
+        rt.set_image("output", out, oidn.OIDN_FORMAT_FLOAT3, width, height)
+        for name, value in flags.items():
+            rt.set_bool("cleanAux" if name == "clean_aux" else name, value)
+        rt.commit()
+        rt.execute()
+        message = device.get_error()
+        if message and message[0]:
+            raise RuntimeError(f"OpenImageDenoise failed: {message}")
+    finally:
+        rt.release()
+    return np.maximum(np.nan_to_num(out, nan=0.0, posinf=0.0), 0.0) if "color" in images else out
