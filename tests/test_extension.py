@@ -99,7 +99,7 @@ def test_extension_builds_validates_installs_and_renders(tmp_path):
         "the bundled embreex wheel was not installed"
     assert list(user.glob("extensions/.local/lib/python3.11/site-packages/scipy/spatial/_ckdtree*.so")), \
         "the bundled scipy wheel was not installed"
-    assert "denoised" not in next(l for l in stdout.splitlines() if l.startswith("REPORTS")), \
+    assert "denoised" not in next(line for line in stdout.splitlines() if line.startswith("REPORTS")), \
         "the bundled OpenImageDenoise (pyoidn, cffi, pycparser) must load in the installed extension"
     passes, _ = read_passes(str(out))
     assert passes["Diffuse Direct"].shape == (64, 64, 3) and passes["Diffuse Direct"].mean() > 0.05
