@@ -57,6 +57,7 @@ def test_the_world_shows_behind_the_geometry_unless_the_film_is_transparent(ext,
             if who == "ours":
                 scene.render.engine = engine.VPLGIRenderEngine.bl_idname
                 scene.vpl_gi.method, scene.vpl_gi.samples, scene.vpl_gi.light_samples = "none", 16, 4
+                scene.vpl_gi.denoise = False  # Combined pixel by pixel: the estimate
             out[who, transparent] = _render(bpy, scene, tmp_path / f"{who}_{transparent}.exr")
     opaque, clear = out["ours", False], out["ours", True]
     alpha = clear["Combined"][..., 3]
@@ -102,6 +103,7 @@ def test_an_hdri_shows_behind_the_geometry_as_in_cycles(ext, tmp_path):
         if who == "ours":
             scene.render.engine = engine.VPLGIRenderEngine.bl_idname
             scene.vpl_gi.method, scene.vpl_gi.samples, scene.vpl_gi.light_samples = "none", 16, 4
+            scene.vpl_gi.denoise = False
         out[who] = _render(bpy, scene, tmp_path / f"{who}.exr")
     ours, cycles = out["ours"]["Environment"], out["cycles"]["Environment"]
     sky = cycles.mean(axis=2) > 0.0

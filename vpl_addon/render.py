@@ -111,10 +111,12 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
 def _denoised(images, h: int, w: int, settings: RenderSettings, progress, result: RenderResult) -> None:
     """Combined's colour denoised in place (``core.denoise``); without OIDN on this system, one warning and the
     image as it is."""
+    combined = images[P.COMBINED]
+    if not combined[:, :3].any():  # a black picture stays black (OIDN would leave traces of 1e-6)
+        return
     if progress is not None and progress(1.0, "denoising") is False:
         raise Cancelled()
     t0 = time.perf_counter()
-    combined = images[P.COMBINED]
     try:
         clean = denoise(combined[:, :3].reshape(h, w, 3), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
                         images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads)
