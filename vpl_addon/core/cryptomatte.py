@@ -9,6 +9,7 @@ of the hash of the kind's layer name (``ViewLayer.CryptoObject``).
 """
 from __future__ import annotations
 
+import functools
 import json
 
 import numpy as np
@@ -38,7 +39,9 @@ def murmur3_32(data: bytes, seed: int = 0) -> int:
     return h ^ (h >> 16)
 
 
+@functools.lru_cache(maxsize=65536)
 def name_hash(name: str) -> int:
+    """The name's hash, computed once: every block of every frame asks again for the same names."""
     return murmur3_32(name.encode("utf-8"))
 
 

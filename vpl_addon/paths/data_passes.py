@@ -24,7 +24,7 @@ import numpy as np
 
 from ..core import cryptomatte
 from ..core import passes as P
-from ..core.sampling import cosine_hemisphere, dot
+from ..core.sampling import cosine_hemisphere, dot, interpolated
 from .gbuffer import camera_hits
 
 NO_DEPTH = 1e10  # Cycles' Depth where the first sample misses
@@ -63,9 +63,8 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
     if centred:
         _, hits = camera_hits(cam, tracer, gbuf.pixels % cam.width + 0.5, gbuf.pixels // cam.width + 0.5)
         at, prim = np.nonzero(hits.hit)[0], hits.prim[hits.hit]
-        corners = scene.triangles[prim].astype(np.float64)
-        point = corners[:, 0] + hits.u[at, None] * (corners[:, 1] - corners[:, 0]) + \
-            hits.v[at, None] * (corners[:, 2] - corners[:, 0])
+        u, v = hits.u[at], hits.v[at]
+        point = interpolated(scene.triangles[prim], np.stack([1.0 - u - v, u, v], axis=1))
         for name, value, empty in ((P.DEPTH, lambda: dot(point - cam.position, camera_axis), NO_DEPTH),
                                    (P.POSITION, lambda: point, 0.0),
                                    (P.OBJECT_INDEX, lambda: scene.object_pass_index[scene.object_id[prim]], 0.0),
