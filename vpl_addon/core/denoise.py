@@ -59,8 +59,8 @@ def _filtered(oidn, device, images: dict[str, np.ndarray], **flags) -> np.ndarra
             rt.set_bool("cleanAux" if name == "clean_aux" else name, value)
         rt.commit()
         rt.execute()
-        message = device.get_error()
-        if message and message[0]:
+        message = device.get_error()  # None, or OIDN's message
+        if message:
             raise RuntimeError(f"OpenImageDenoise failed: {message}")
     finally:
         rt.release()
