@@ -4,8 +4,9 @@ timed, and judged against one converged Cycles reference per scene.
 Per scene: the .blend is extracted once (timed separately), then each engine method renders through
 ``vpl_addon.render.render`` with its budget knob set (wall time measured around ``render()``), Cycles renders with
 ``configure_cycles`` at each sample count (wall time around Blender's render, EXR write included), and Cycles with
-OpenImageDenoise on ``Combined``. ``Diffuse Indirect`` is compared for the engine methods and plain Cycles, ``Combined``
-for all of them. Results: ``bench.csv``, ``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the
+OpenImageDenoise on ``Combined``; ``METHOD+oidn`` is an engine method with its render denoised (``RenderSettings.denoise``,
+the F12 default), judged on ``Combined`` against Cycles + OIDN. ``Diffuse Indirect`` is compared for the undenoised
+engine methods and plain Cycles, ``Combined`` for all of them. Results: ``bench.csv``, ``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the
 headline numbers (``vpl_addon.evaluation.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
 (the engine's ``RenderSettings.seed``, Cycles' seed), one CSV row set per run; the curves take the mean wall time and
 mean rMAE of each budget's runs.
@@ -46,9 +47,11 @@ from ..vpl_addon.render import RenderSettings, render
 
 CYCLES = "cycles"
 OIDN = "cycles+oidn"
+DENOISED = "+oidn"  # an engine method's name + this: the same method, its Combined denoised
 ENGINE_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR)
 COMPARED = (P.DIFFUSE_INDIRECT, P.COMBINED)
-HEADLINE_SECONDS = (2.0, 10.0)
+HEADLINE_SECONDS = (2.0, 10.0, 30.0)
+EQUAL_ERROR_SECONDS = 10.0  # the equal-error speed-up is read at this time of the best method
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
 
@@ -85,12 +88,24 @@ if "vbnl" in METHODS:  # Li et al.: a fixed set of lights, sampled with more (BS
     KNOBS["vbnl"] = Knob("samples", (1, 4, 16, 64, 256), (1, 4), _vbnl_samples)
 
 
+def engine_method(method: str) -> str | None:
+    """The engine method a bench method runs (``vbnl+oidn``: ``vbnl``); None for Cycles."""
+    base = method.removesuffix(DENOISED)
+    return base if base in METHODS else None
+
+
 def knob_of(method: str) -> Knob:
-    return KNOBS.get(method, VPL_COUNT)
+    return KNOBS.get(engine_method(method) or method, VPL_COUNT)
 
 
 def all_methods() -> tuple[str, ...]:
-    return (*METHODS, CYCLES, OIDN)
+    return (*METHODS, *(m + DENOISED for m in METHODS), CYCLES, OIDN)
+
+
+def default_methods() -> tuple[str, ...]:
+    """Every engine method as it is, the default one (``RenderSettings.method``) denoised as F12 renders it, and
+    both Cycles rivals."""
+    return (*METHODS, RenderSettings().method + DENOISED, CYCLES, OIDN)
 
 
 def parse_budgets(specs: list[str] | None, methods: list[str]) -> dict[str, list[int]]:
@@ -104,7 +119,7 @@ def parse_budgets(specs: list[str] | None, methods: list[str]) -> dict[str, list
             raise BenchError(f"--budgets {spec!r}: budgets are whole numbers separated by commas") from None
         if not numbers or numbers[0] < 1:
             raise BenchError(f"--budgets {spec!r}: give at least one budget, each at least 1")
-        targets = [name] if name else [m for m in methods if m in METHODS]
+        targets = [name] if name else [m for m in methods if engine_method(m)]
         if name and name not in all_methods():
             raise BenchError(f"--budgets {spec!r}: unknown method {name!r}; choose one of {', '.join(all_methods())}")
         for t in targets:
@@ -429,7 +444,7 @@ class Bench:
             return {name: errors(images[name], reference[name], pass_mask(name, reference, mask)) for name in passes}
 
         runs: list[Run] = []
-        engine_methods = [m for m in self.o.methods if m in METHODS]
+        engine_methods = [m for m in self.o.methods if engine_method(m)]
         if engine_methods:
             t0 = time.perf_counter()
             try:
@@ -444,18 +459,20 @@ class Bench:
             base = dataclasses.replace(base, samples=self.o.samples, light_samples=self.o.light_samples)
             for method in engine_methods:
                 knob = knob_of(method)
-                settings = dataclasses.replace(base, method=method)
+                denoised = method.endswith(DENOISED)  # judged on the picture only: the light passes stay estimates
+                settings = dataclasses.replace(base, method=engine_method(method), denoise=denoised)
+                compared = (P.COMBINED,) if denoised else COMPARED
 
-                def one(budget, seed, method=method, knob=knob, settings=settings):
+                def one(budget, seed, method=method, knob=knob, settings=settings, compared=compared):
                     wall, result, mem = engine_run(built, knob.apply(dataclasses.replace(settings, seed=seed), budget))
                     return Run(label, w, h, method, budget, wall, seed, t_extract, dict(result.seconds), result.rays,
-                               mem.peak_mb, mem.rise_mb, judge(result.passes, COMPARED))
+                               mem.peak_mb, mem.rise_mb, judge(result.passes, compared))
 
                 runs += self.sweep(method, label, one,
                                    lambda b, knob=knob, settings=settings: render(built, knob.apply(settings, b)))
-            method = engine_methods[0]
-            ran = [r.budget for r in runs if r.method == method]
+            ran = [r.budget for r in runs if r.method == engine_methods[0]]
             budget = ran[len(ran) // 2]
+            method = engine_method(engine_methods[0])
             self.bar.set_description(f"{label} gather rays")
             rays = record_gather_rays(built, knob_of(method).apply(dataclasses.replace(base, method=method), budget),
                                       self.o.gather_rays)
@@ -525,7 +542,7 @@ def curves_of(runs: list[Run]) -> dict[str, dict[str, C.Curve]]:
 
 def headline(label: str, panels: dict[str, dict[str, C.Curve]]) -> list[str]:
     """The two headline numbers against Cycles on Diffuse Indirect, and the same against Cycles + OIDN on
-    Combined."""
+    Combined (where the undenoised and the denoised engine methods compete)."""
     lines = []
     for name, rival in ((P.DIFFUSE_INDIRECT, CYCLES), (P.COMBINED, OIDN)):
         curves = panels.get(name, {})
@@ -549,7 +566,7 @@ def headline(label: str, panels: dict[str, dict[str, C.Curve]]) -> list[str]:
             each.append(f"{m} " + " / ".join("n/a" if r is None else f"{r:.2f}x" for r in ratios))
         lines.append(f"  each method, {rival} rMAE / its rMAE at {' / '.join(f'{t:g} s' for t in HEADLINE_SECONDS)}: "
                      + ", ".join(each))
-        ee = C.equal_error(ours, curves[rival], HEADLINE_SECONDS[-1])
+        ee = C.equal_error(ours, curves[rival], EQUAL_ERROR_SECONDS)
         if ee.best is None:
             lines.append(f"  equal error: n/a (no method's runs span {ee.seconds:g} s)")
         elif ee.speedup is None:

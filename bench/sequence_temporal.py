@@ -9,6 +9,11 @@ VPL budget.
     .venv/bin/python bench/sequence_temporal.py --scene example_blends/seq_moving_object.blend \\
         --run reuse=ir --run "retrace=ir --no-path-reuse"
 
+``--picture`` judges the finished picture instead (issue 23): every run is baked with ``--denoise`` and compared on
+``Combined``, next to Cycles + OpenImageDenoise rendered frame by frame at the first run's time per frame (its
+samples per pixel from a timed trial on the first frame), the rival a user would animate with: a denoiser that works
+frame by frame flickers where a converged indirect does not.
+
 References are rendered once per frame through ``python -m vpl_addon reference`` and cached by hash (the default
 cache ~/.cache/vpl_gi); bakes go through ``python -m vpl_addon bake`` (so a method that keeps state, smc, carries it;
 ir keeps its light paths and re-traces those that moved objects cut, the others place their lights again in
@@ -52,6 +57,36 @@ def _mean_over_seeds(results: list[dict]) -> dict:
     return out
 
 
+def cycles_oidn_frames(scene: str, frames: range, seconds: float, folder: str, percentage: int | None) -> dict:
+    """Cycles + OIDN (the reference's settings, denoiser on) rendered frame by frame into ``folder`` at about
+    ``seconds`` a frame (scene sync and EXR write included, as in the bench): samples per pixel scaled from a timed
+    16-spp trial of the first frame. Returns the samples and the mean seconds a frame."""
+    from vpl_addon.__main__ import PACKAGE, extension_package
+    extension_package()
+    import importlib
+    runner = importlib.import_module(f"{PACKAGE}.bench.runner")
+    cli_module = importlib.import_module(f"{PACKAGE}.operators.cli")
+    cli_module._ensure_registered()
+    import bpy
+
+    def opened(frame):
+        cli_module._open_blend(scene)
+        if percentage:
+            bpy.context.scene.render.resolution_percentage = percentage
+        bpy.context.scene.frame_set(frame)
+        return bpy.context.scene
+
+    os.makedirs(folder, exist_ok=True)
+    trial, _, _ = runner.cycles_run(opened(frames[0]), 16, True, folder)
+    spp = max(1, round(16 * seconds / trial))
+    walls = []
+    for frame in frames:
+        wall, images, _ = runner.cycles_run(opened(frame), spp, True, folder)
+        walls.append(wall)
+        os.replace(os.path.join(folder, "cycles.exr"), os.path.join(folder, f"frame_{frame:04d}.exr"))
+    return {"samples": spp, "seconds_per_frame": sum(walls) / len(walls)}
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scene", default=os.path.join(ROOT, "example_blends", "seq_moving_light.blend"))
@@ -66,6 +101,8 @@ def main(argv=None):
                                                    "scene's)")
     p.add_argument("--seeds", type=int, default=1, help="bake each run with seeds 0..N-1 and average per frame")
     p.add_argument("--extra", default="", help="more bake flags, e.g. '--smc-warmup 20'")
+    p.add_argument("--picture", action="store_true",
+                   help="bake denoised and judge Combined, next to Cycles + OIDN at the first run's time per frame")
     p.add_argument("--out", default=os.path.join(ROOT, "out", "sequence"))
     args = p.parse_args(argv)
     first, last = (int(v) for v in args.frames.split(":"))
@@ -81,6 +118,7 @@ def main(argv=None):
     print(f"references: {time.perf_counter() - t0:.0f} s", flush=True)
 
     from vpl_addon.evaluation.compare import compare_sequences
+    judged = "Combined" if args.picture else "Diffuse Indirect"
     results = {}
     runs = args.run or ["smc=smc", "bidir=bidir"]
     for run in runs:
@@ -94,20 +132,34 @@ def main(argv=None):
             log = cli("bake", args.scene, "--frames", args.frames, "-o", folder, "--method", method, "--vpls",
                       args.vpls, "--samples", args.samples, "--light-samples", args.light_samples, "--overwrite",
                       *flags, *(["--seed", seed] if args.seeds > 1 else []), *args.extra.split(),
+                      *(["--denoise"] if args.picture else []),
                       *(["--percentage", args.percentage] if args.percentage else []))
             seconds = time.perf_counter() - t0
-            result = compare_sequences(folder, refs)["Diffuse Indirect"]
+            result = compare_sequences(folder, refs, [judged])[judged]
             result["bake_seconds"] = round(seconds, 1)
             result["log"] = log.splitlines()
             result["light_path_rays"] = [int(m.group(1)) for m in re.finditer(r"light paths \((\d+) rays\)", log)]
             per_seed.append(result)
             print(f"{label} seed {seed}: {seconds:.0f} s", flush=True)
         results[label] = _mean_over_seeds(per_seed)
+    if args.picture:
+        frames = range(first, last + 1)
+        first_run = next(iter(results.values()))
+        folder = os.path.join(args.out, f"{stem}_cycles_oidn")
+        shutil.rmtree(folder, ignore_errors=True)
+        rival = cycles_oidn_frames(args.scene, frames, first_run["bake_seconds"] / len(frames), folder,
+                                   args.percentage)
+        result = compare_sequences(folder, refs, [judged])[judged]
+        result["bake_seconds"] = round(rival["seconds_per_frame"] * len(frames), 1)
+        result["light_path_rays"] = []
+        label = f"cycles+oidn {rival['samples']} spp"
+        results[label] = result
+        print(f"{label}: {rival['seconds_per_frame']:.2f} s a frame", flush=True)
     with open(os.path.join(args.out, f"{stem}_results.json"), "w") as f:
         json.dump(results, f, indent=1)
     print(f"\n{stem}, frames {args.frames}, {args.percentage or 100} %, {args.vpls} VPLs, {args.samples} spp, "
           f"Cycles {args.reference_samples} "
-          f"spp per frame (Diffuse Indirect, Reinhard tone mapped luminance)\n")
+          f"spp per frame ({judged}{', denoised' if args.picture else ''}, Reinhard tone mapped luminance)\n")
     print("| run | mean abs E, tracked | mean abs E', tracked | mean abs E, frame | mean abs E', frame | "
           "rMAE (mean of frames) | light-path rays per frame, frames 2.. | bake s |")
     print("|---|---|---|---|---|---|---|---|")

@@ -211,13 +211,13 @@ def cmd_compare(args) -> int:
 
 def cmd_bench(args) -> int:
     try:
-        from ..bench.runner import Bench, BenchError, Options, all_methods, parse_budgets
+        from ..bench.runner import Bench, BenchError, Options, all_methods, default_methods, parse_budgets
     except ModuleNotFoundError as err:
         if err.name != f"{__package__.rpartition('.')[0]}.bench":
             raise
         raise UserError("the benchmark runs from a clone of the repository: bench/ is not part of the installed "
                         "extension") from None
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else list(all_methods())
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else list(default_methods())
     for m in methods:
         if m not in all_methods():
             raise UserError(f"--methods: unknown method {m!r}; choose from {', '.join(all_methods())}")
@@ -361,8 +361,9 @@ def parser() -> argparse.ArgumentParser:
     c.set_defaults(run=cmd_compare)
     b = sub.add_parser("bench", help="time against error: every method and Cycles over their budgets, CSV + plots")
     b.add_argument("scenes", nargs="+", metavar="SCENE.blend")
-    b.add_argument("--methods", help="comma-separated, from the engine's methods, cycles and cycles+oidn "
-                                     "(default: all)")
+    b.add_argument("--methods", help="comma-separated, from the engine's methods, each also as METHOD+oidn (its "
+                                     "render denoised, judged on Combined), cycles and cycles+oidn (default: every "
+                                     "engine method, the default one +oidn, cycles, cycles+oidn)")
     b.add_argument("--budgets", action="append", metavar="[METHOD=]N,N,...",
                    help="budgets of one method (VPL count; samples per pixel for cycles), or of every engine "
                         "method without METHOD=; repeatable")
