@@ -4,10 +4,10 @@ timed, and judged against one converged Cycles reference per scene.
 Per scene: the .blend is extracted once (timed separately), then each engine method renders through
 ``vpl_addon.render.render`` with its budget knob set (wall time measured around ``render()``), Cycles renders with
 ``configure_cycles`` at each sample count (wall time around Blender's render, EXR write included), and Cycles with
-OpenImageDenoise on ``Combined``; ``METHOD+oidn`` is an engine method with its render denoised (``RenderSettings.denoise``,
-the F12 default), judged on ``Combined`` against Cycles + OIDN. ``Diffuse Indirect`` is compared for the undenoised
-engine methods and plain Cycles, ``Combined`` for all of them. Results: ``bench.csv``, ``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the
-headline numbers (``vpl_addon.evaluation.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
+OpenImageDenoise on ``Combined``; ``METHOD+oidn`` is an engine method with its render denoised
+(``RenderSettings.denoise``, the F12 default), judged on ``Combined`` against Cycles + OIDN. ``Diffuse Indirect`` is
+compared for the undenoised engine methods and plain Cycles, ``Combined`` for all of them. Results: ``bench.csv``,
+``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the headline numbers (``vpl_addon.evaluation.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
 (the engine's ``RenderSettings.seed``, Cycles' seed), one CSV row set per run; the curves take the mean wall time and
 mean rMAE of each budget's runs.
 
