@@ -7,9 +7,10 @@ Per scene: the .blend is extracted once (timed separately), then each engine met
 OpenImageDenoise on ``Combined``; ``METHOD+oidn`` is an engine method with its render denoised
 (``RenderSettings.denoise``, the F12 default), judged on ``Combined`` against Cycles + OIDN. ``Diffuse Indirect`` is
 compared for the undenoised engine methods and plain Cycles, ``Combined`` for all of them. Results: ``bench.csv``,
-``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the headline numbers (``vpl_addon.evaluation.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1
-(the engine's ``RenderSettings.seed``, Cycles' seed), one CSV row set per run; the curves take the mean wall time and
-mean rMAE of each budget's runs.
+``<scene>.png`` (log-log rMAE against seconds) and ``summary.txt`` with the headline numbers
+(``vpl_addon.evaluation.convergence``). With ``--seeds N`` every budget runs N times, with seeds 0..N-1 (the engine's
+``RenderSettings.seed``, Cycles' seed), one CSV row set per run; the curves take the mean wall time and mean rMAE of
+each budget's runs.
 
 Peak memory is the process's peak resident set size during each run: Linux's ``/proc/self/clear_refs`` (writing
 "5") resets the peak before a run and ``VmHWM`` reads it after, which sees everything, embree's BVH and Cycles
