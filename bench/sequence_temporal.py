@@ -59,8 +59,9 @@ def _mean_over_seeds(results: list[dict]) -> dict:
 
 def cycles_oidn_frames(scene: str, frames: range, seconds: float, folder: str, percentage: int | None) -> dict:
     """Cycles + OIDN (the reference's settings, denoiser on) rendered frame by frame into ``folder`` at about
-    ``seconds`` a frame (scene sync and EXR write included, as in the bench): samples per pixel scaled from a timed
-    16-spp trial of the first frame. Returns the samples and the mean seconds a frame."""
+    ``seconds`` a frame (scene sync and EXR write included, as in the bench): samples per pixel scaled from timed
+    trials of the first frame (16 spp, then the scaled count, up to three times, since a render's fixed costs make
+    time grow slower than samples). Returns the samples and the mean seconds a frame."""
     from vpl_addon.__main__ import PACKAGE, extension_package
     extension_package()
     import importlib
@@ -77,8 +78,13 @@ def cycles_oidn_frames(scene: str, frames: range, seconds: float, folder: str, p
         return bpy.context.scene
 
     os.makedirs(folder, exist_ok=True)
-    trial, _, _ = runner.cycles_run(opened(frames[0]), 16, True, folder)
-    spp = max(1, round(16 * seconds / trial))
+    spp = 16
+    for _ in range(3):
+        trial, _, _ = runner.cycles_run(opened(frames[0]), spp, True, folder)
+        scaled = max(1, round(spp * seconds / trial))
+        if abs(scaled - spp) <= 0.1 * spp:
+            break
+        spp = scaled
     walls = []
     for frame in frames:
         wall, images, _ = runner.cycles_run(opened(frame), spp, True, folder)
