@@ -5,6 +5,10 @@ The guides are Cycles' ``Denoising Albedo`` (diffuse plus glossy colour) and ``D
 in camera space, x right, y up, z forward), per pixel the mean over its samples. They are nearly noise-free here (no
 path is traced for them), but texture detail and anti-aliased edges make them differ from sample to sample, so they
 are prefiltered by OIDN first, as its documentation recommends for guides that are not clean ("cleanAux").
+
+OIDN's network is not symmetric under a vertical flip (the same image upside down denoises 2-3 % differently, in
+rMAE), so the images go to it bottom row first, the way Blender holds images: a compositor Denoise node fed by our
+passes then gives exactly our denoised Combined.
 """
 from __future__ import annotations
 
@@ -25,7 +29,8 @@ def _oidn():
 
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None = None) -> np.ndarray:
     """(H,W,3) float32 denoised HDR ``color`` (linear, non-negative) guided by ``albedo`` and ``normal`` (H,W,3),
-    which are prefiltered; on ``threads`` CPU threads (None: OIDN's choice, every core)."""
+    which are prefiltered; rows top first, as the passes are; on ``threads`` CPU threads (None: OIDN's choice, every
+    core)."""
     oidn = _oidn()
     device = oidn.Device(oidn.OIDN_DEVICE_TYPE_CPU)
     if threads:
@@ -35,13 +40,14 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: 
         clean = {}
         for name, image in (("albedo", albedo), ("normal", normal)):
             clean[name] = _filtered(oidn, device, {name: _float3(image)})
-        return _filtered(oidn, device, {"color": _float3(color), **clean}, hdr=True, clean_aux=True)
+        return _filtered(oidn, device, {"color": _float3(color), **clean}, hdr=True, clean_aux=True)[::-1]
     finally:
         device.release()
 
 
 def _float3(image: np.ndarray) -> np.ndarray:
-    return np.ascontiguousarray(np.nan_to_num(np.asarray(image, np.float32)[..., :3], nan=0.0, posinf=0.0))
+    """The RGB of an (H,W,C) image, rows top first, as OIDN's contiguous float3 input, bottom row first."""
+    return np.ascontiguousarray(np.nan_to_num(np.asarray(image, np.float32)[::-1, :, :3], nan=0.0, posinf=0.0))
 
 
 def _filtered(oidn, device, images: dict[str, np.ndarray], **flags) -> np.ndarray:

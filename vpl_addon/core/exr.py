@@ -17,11 +17,11 @@ LAYER = "ViewLayer"
 CHANNEL_ORDER = "RGBXYZUVWA"  # of the channels of a pass: RGBA, XYZ(W) of vectors, UVA of the UV pass
 
 
-def read_passes(path: str) -> tuple[dict[str, np.ndarray], dict]:
-    """Passes of the first view layer in ``path`` and the header of its first part."""
+def read_passes(path: str, layer: str | None = None) -> tuple[dict[str, np.ndarray], dict]:
+    """Passes of the view layer ``layer`` in ``path`` (None: the first; Blender writes the compositor's output first,
+    as layer ``Composite``) and the header of its first part."""
     with OpenEXR.File(str(path)) as f:
         channels: dict[str, dict[str, np.ndarray]] = {}  # pass -> channel -> (H,W) or (H,W,C) of grouped RGB(A)
-        layer = None
         for part in f.parts:
             for name, channel in part.channels.items():
                 prefix, _, pass_name = name.rpartition(".")
