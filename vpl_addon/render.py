@@ -31,7 +31,7 @@ from typing import Callable
 import numpy as np
 
 from .core import passes as P
-from .core.denoise import DenoiserMissing, denoise
+from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
 from .core.sampling import group_sum, stratified_2d
 from .core.tracer import Tracer
 from .gather.bilateral import deinterleave
@@ -109,17 +109,20 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
 
 
 def _denoised(images, h: int, w: int, settings: RenderSettings, progress, result: RenderResult) -> None:
-    """Combined's colour denoised in place (``core.denoise``); without OIDN on this system, one warning and the
-    image as it is."""
+    """Combined's colour denoised in place (``core.denoise``), its progress told as "denoising" (``progress`` may
+    cancel it); without OIDN on this system, one warning and the image as it is."""
     combined = images[P.COMBINED]
     if not combined[:, :3].any():  # a black picture stays black (OIDN would leave traces of 1e-6)
         return
-    if progress is not None and progress(1.0, "denoising") is False:
+    told = None if progress is None else (lambda done: progress(done, "denoising"))
+    if told is not None and told(0.0) is False:
         raise Cancelled()
     t0 = time.perf_counter()
     try:
         clean = denoise(combined[:, :3].reshape(h, w, 3), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
-                        images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads)
+                        images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, told)
+    except DenoiseCancelled:
+        raise Cancelled() from None
     except DenoiserMissing as err:
         result.warnings.append(f"{err}: the image is not denoised")
         return

@@ -9,14 +9,24 @@ are prefiltered by OIDN first, as its documentation recommends for guides that a
 OIDN's network is not symmetric under a vertical flip (the same image upside down denoises 2-3 % differently, in
 rMAE), so the images go to it bottom row first, the way Blender holds images: a compositor Denoise node fed by our
 passes then gives exactly our denoised Combined.
+
+Progress and cancelling (ESC) reach into OIDN's filters through its progress monitor, which ``pyoidn`` declares the
+type of but does not wrap: the setter is declared on pyoidn's cffi interface (``_progress_setter``).
 """
 from __future__ import annotations
+
+import functools
+from typing import Callable
 
 import numpy as np
 
 
 class DenoiserMissing(RuntimeError):
     """OIDN cannot be loaded on this system (the message says why)."""
+
+
+class DenoiseCancelled(Exception):
+    """``progress`` returned False while OIDN ran."""
 
 
 def _oidn():
@@ -27,22 +37,35 @@ def _oidn():
     return pyoidn
 
 
-def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None = None) -> np.ndarray:
+def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None = None,
+            progress: Callable[[float], bool] | None = None) -> np.ndarray:
     """(H,W,3) float32 denoised HDR ``color`` (linear, non-negative) guided by ``albedo`` and ``normal`` (H,W,3),
     which are prefiltered; rows top first, as the passes are; on ``threads`` CPU threads (None: OIDN's choice, every
-    core)."""
+    core). ``progress(fraction)`` is called as OIDN works (three filter runs: the two guides, then the colour); False
+    stops it (``DenoiseCancelled``)."""
     oidn = _oidn()
     device = oidn.Device(oidn.OIDN_DEVICE_TYPE_CPU)
     if threads:
         device.set_int("numThreads", int(threads))
     device.commit()
+
+    def part(index):  # the share of the whole that filter run ``index`` (of three) is
+        return None if progress is None else (lambda done: progress((index + done) / 3.0))
     try:
         clean = {}
-        for name, image in (("albedo", albedo), ("normal", normal)):
-            clean[name] = _filtered(oidn, device, {name: _float3(image)})
-        return _filtered(oidn, device, {"color": _float3(color), **clean}, hdr=True, clean_aux=True)[::-1]
+        for index, (name, image) in enumerate((("albedo", albedo), ("normal", normal))):
+            clean[name] = _filtered(oidn, device, {name: _float3(image)}, part(index))
+        return _filtered(oidn, device, {"color": _float3(color), **clean}, part(2), hdr=True, clean_aux=True)[::-1]
     finally:
         device.release()
+
+
+@functools.cache
+def _progress_setter():
+    """pyoidn's cffi interface and OIDN's ``oidnSetFilterProgressMonitorFunction`` on it (declared once)."""
+    from pyoidn import capi
+    capi.oidn_ffi.cdef("void oidnSetFilterProgressMonitorFunction(OIDNFilter, OIDNProgressMonitorFunction, void*);")
+    return capi.oidn_ffi, capi.oidn_Capi.oidnSetFilterProgressMonitorFunction
 
 
 def _float3(image: np.ndarray) -> np.ndarray:
@@ -50,13 +73,26 @@ def _float3(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.nan_to_num(np.asarray(image, np.float32)[::-1, :, :3], nan=0.0, posinf=0.0))
 
 
-def _filtered(oidn, device, images: dict[str, np.ndarray], **flags) -> np.ndarray:
+def _filtered(oidn, device, images: dict[str, np.ndarray], keep_going: Callable[[float], bool] | None = None,
+              **flags) -> np.ndarray:
     """One RT filter run on ``images`` (OIDN input names: color, albedo, normal); its output has the shape of the
-    first. A guide given alone is denoised itself (OIDN's prefiltering of auxiliary images)."""
+    first. A guide given alone is denoised itself (OIDN's prefiltering of auxiliary images). ``keep_going(done)``
+    hears the run's progress (0 to 1) and stops it by returning False."""
     first = next(iter(images.values()))
     height, width = first.shape[:2]
     out = np.zeros_like(first)
     rt = oidn.Filter(device, "RT")
+    stopped = []
+    if keep_going is not None:
+        ffi, set_monitor = _progress_setter()
+
+        def monitor(_user, done):
+            if keep_going(float(done)) is False:
+                stopped.append(done)
+                return False
+            return True
+        callback = ffi.callback("bool(void*, double)", monitor)  # an error in it prints and stops OIDN
+        set_monitor(rt._filter, callback, ffi.NULL)  # pyoidn's handle of the filter
     try:
         for name, image in images.items():
             rt.set_image(name, image, oidn.OIDN_FORMAT_FLOAT3, width, height)
@@ -66,6 +102,8 @@ def _filtered(oidn, device, images: dict[str, np.ndarray], **flags) -> np.ndarra
         rt.commit()
         rt.execute()
         message = device.get_error()  # None, or OIDN's message
+        if stopped:
+            raise DenoiseCancelled()
         if message:
             raise RuntimeError(f"OpenImageDenoise failed: {message}")
     finally:

@@ -1,0 +1,58 @@
+"""The denoiser in the engine (issue 23), without Blender: its progress and ESC reach into OIDN's filter runs, and a
+system without OIDN gets one warning and the picture as rendered."""
+import sys
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from conftest import plane_scene
+from vpl_addon.core import passes as P
+from vpl_addon.lights import PointLight
+from vpl_addon.render import Cancelled, RenderSettings, render
+
+SETTINGS = RenderSettings(method="none", samples=2, light_samples=1, passes=(P.COMBINED, P.NOISY_IMAGE),
+                          denoise=True, seed=3)
+
+
+def _lit():
+    """A floor under a point light, 48 x 48 pixels of noisy direct light."""
+    return plane_scene([PointLight("lamp", [1.0, 0.0, 2.0], [200.0] * 3, radius=0.5)], res=48)
+
+
+def test_progress_reaches_into_the_denoiser():
+    """OIDN's own progress (its three runs: the two guides, then the colour) arrives as "denoising" between 0 and 1,
+    rising, and the picture comes out denoised."""
+    heard = []
+    result = render(_lit(), SETTINGS, lambda fraction, text: heard.append((text, fraction)))
+    steps = [fraction for text, fraction in heard if text == "denoising"]
+    assert len(steps) > 6 and steps[0] == 0.0 and 0.9 < steps[-1] <= 1.0
+    assert steps == sorted(steps)
+    assert sum(0.0 < f < 1.0 for f in steps) > 4  # from inside the filter runs, not only around them
+    noisy, clean = result.passes[P.NOISY_IMAGE][..., :3], result.passes[P.COMBINED][..., :3]
+    assert np.isfinite(clean).all() and np.abs(clean - noisy).mean() > 0.01 * noisy.mean()
+
+
+@pytest.mark.parametrize("stop_at", [0.0, 0.2, 0.8])
+def test_esc_while_denoising_cancels(stop_at):
+    """ESC before the denoiser, in the guides' prefiltering or in the colour's run stops the render (Cancelled),
+    without OIDN finishing the run it was in."""
+    heard = []
+
+    def progress(fraction, text):
+        heard.append((text, fraction))
+        return not (text == "denoising" and fraction >= stop_at)
+    with pytest.raises(Cancelled):
+        render(_lit(), SETTINGS, progress)
+    last = heard[-1]
+    assert last[0] == "denoising" and stop_at <= last[1] < stop_at + 0.2
+
+
+def test_without_oidn_one_warning_and_the_picture_as_rendered(monkeypatch):
+    """A system where OIDN cannot load (here: its module made unimportable) renders: one warning that names
+    OpenImageDenoise, and Combined exactly as without denoising."""
+    as_rendered = render(_lit(), replace(SETTINGS, denoise=False))
+    monkeypatch.setitem(sys.modules, "pyoidn", None)
+    result = render(_lit(), SETTINGS)
+    assert len(result.warnings) == 1 and "OpenImageDenoise" in result.warnings[0], result.warnings
+    np.testing.assert_array_equal(result.passes[P.COMBINED], as_rendered.passes[P.COMBINED])
