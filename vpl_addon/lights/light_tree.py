@@ -90,7 +90,8 @@ class LightTree:
         # each light's first choice (its node of the cut, or its own place after them) and the depth it is at
         self.entry, self.below = np.zeros(len(lights), np.int64), np.zeros(len(lights), np.int64)
         self.entry[self.distant] = np.arange(len(self.distant))
-        self.table, self.oriented = np.zeros((0, 11)), False
+        self.table, self.oriented, self.origin, self.points = np.zeros((0, 11)), False, np.zeros(3), False
+        self.cut_rows, self.unit, self.scale = np.zeros((0, 11), np.float32), 1.0, 1.0
         if not placed:
             return
         center = np.array([lights[i].bounds()[0] for i in placed], np.float64).reshape(-1, 3)
@@ -117,13 +118,17 @@ class LightTree:
             nodes += [None, None]
             nodes[at] = (0.5 * (lo + hi), 0.5 * np.linalg.norm(hi - lo), cone[0][0], cone[1][0], cone[2][0],
                          intensity[members].sum(), children, -1)
-            left = _split(members, center, radius, axis, theta_o, theta_e, intensity)
+            if len(placed) > cut:
+                left = _split(members, center, radius, axis, theta_o, theta_e, intensity)
+            else:  # every leaf is in the cut: no sample walks the tree, its shape does not matter
+                left = np.arange(len(members)) < len(members) // 2
             stack += [(members[left], children[0]), (members[~left], children[1])]
         center, radius, axis, spread, emit, intensity, self.children, self.light = map(np.array, zip(*nodes))
         # one row per node, gathered at once: centre, radius^2, intensity, axis, cos and sin theta_o, cos theta_e
         self.table = np.column_stack([center, radius ** 2, intensity, axis, np.cos(spread), np.sin(spread),
                                       np.cos(emit)])
         self.oriented = bool((spread < np.pi).any())  # else every node emits everywhere: no cone to test
+        self.origin = center[0]
         # the path from the root to each light: its nodes by depth, -1 past its leaf
         parent = np.full(len(nodes), -1)
         inner = np.nonzero(self.light < 0)[0]
@@ -138,6 +143,16 @@ class LightTree:
         for light, chain in chains.items():
             self.path[light, :len(chain)] = chain
         self.cut = self._cut(cut)
+        self.points = bool((self.table[self.cut, 3] == 0.0).all() and (self.table[self.cut, 8] <= -1.0).all())
+        # the cut's rows in single precision, lengths in units of the root's radius about its centre, intensities
+        # in units of the largest (with the distant lights' irradiance in the same unit over the radius^2)
+        self.unit = 1.0 / self.table[0, 3] ** 0.5 if self.table[0, 3] > 0.0 else 1.0
+        rows = self.table[self.cut].copy()
+        rows[:, 0:3] = (rows[:, 0:3] - self.origin) * self.unit
+        rows[:, 3] *= self.unit ** 2
+        self.scale = 1.0 / max(rows[:, 4].max(), 1e-300)
+        rows[:, 4] *= self.scale * self.unit ** 2
+        self.cut_rows = rows.astype(np.float32)
         in_cut = np.full(len(nodes), -1)
         in_cut[self.cut] = np.arange(len(self.cut))
         on_path = np.where(self.path >= 0, in_cut[self.path], -1)[placed]
@@ -160,17 +175,22 @@ class LightTree:
 
     def importance(self, rows, p, n):
         """Importance of the nodes whose ``table`` rows are ``rows`` (..., 11) at points p with normals n (..., 3),
-        broadcast against each other (Conty Estevez and Kulla, eq. 3)."""
+        broadcast against each other."""
         to = p - rows[..., 0:3]  # from the centre toward p
-        d2, r2 = dot(to, to), rows[..., 3]
+        return self._importance(rows, dot(to, to), -dot(n, to), dot(rows[..., 5:8], to))
+
+    def _importance(self, rows, d2, toward, along):
+        """Conty Estevez and Kulla's eq. 3 from the squared distance d2 between point and node centre, the normal's
+        component toward the centre (``toward``) and the cone axis' component toward the point (``along``)."""
+        r2 = rows[..., 3]
         inside = d2 <= r2
         d2 = np.maximum(d2, 1e-30)
         inv_d = 1.0 / np.sqrt(d2)
         sin2_u = np.where(inside, 1.0, r2 / d2)  # theta_u: the half angle the sphere subtends at p
         sin_u, cos_u = np.sqrt(sin2_u), np.sqrt(1.0 - sin2_u)
-        value = rows[..., 4] * np.where(inside, 1.0, horizon_bound(-dot(n, to) * inv_d, cos_u, sin_u))
+        value = rows[..., 4] * np.where(inside, 1.0, horizon_bound(toward * inv_d, cos_u, sin_u))
         if self.oriented:
-            cos_t = np.clip(dot(rows[..., 5:8], to) * inv_d, -1.0, 1.0)  # the cone's axis to p
+            cos_t = np.clip(along * inv_d, -1.0, 1.0)  # between the cone's axis and the direction to p
             cos_o, sin_o = rows[..., 8], rows[..., 9]
             cos_a, sin_a = cos_o * cos_u - sin_o * sin_u, sin_o * cos_u + cos_o * sin_u  # theta_o + theta_u
             emit = np.where(sin_a < 0.0, 1.0, _cos_less(cos_t, _sin(cos_t), cos_a, sin_a))  # past pi: all
@@ -179,11 +199,24 @@ class LightTree:
 
     def _first_choice(self, p, n):
         """(P, E) the probability of each first choice at points p, normals n (P,3): the cut's nodes, then the
-        distant lights, in proportion to their importance (evenly where all are zero)."""
+        distant lights, in proportion to their importance (evenly where all are zero). Computed in single
+        precision, in units of the root's radius about its centre (``cut_rows``), the points no nearer a node's
+        centre than a millionth of it; every pair of point and node on its own, so that ``sample`` and
+        ``probability`` get the same numbers for a point."""
         value = np.empty((len(p), len(self.cut) + len(self.suns)))
-        value[:, :len(self.cut)] = self.importance(self.table[self.cut], p[:, None], n[:, None])
+        rows = self.cut_rows
+        q, c, axis = ((p - self.origin) * self.unit).astype(np.float32), rows[:, 0:3], rows[:, 5:8]
+        n = n.astype(np.float32)
+        to = [q[:, k, None] - c[:, k] for k in range(3)]  # (P, C) each: from every node's centre to every point
+        d2 = np.maximum(to[0] * to[0] + to[1] * to[1] + to[2] * to[2], np.float32(1e-12))
+        toward = -(n[:, 0, None] * to[0] + n[:, 1, None] * to[1] + n[:, 2, None] * to[2])
+        if self.points:  # every node of the cut a point light: eq. 3 is I max(cos, 0) / d^2
+            value[:, :len(self.cut)] = rows[:, 4] * np.maximum(toward, 0.0) / (d2 * np.sqrt(d2))
+        else:
+            along = axis[:, 0] * to[0] + axis[:, 1] * to[1] + axis[:, 2] * to[2]
+            value[:, :len(self.cut)] = self._importance(rows, d2, toward, along)
         for j, sun in enumerate(self.suns):
-            value[:, len(self.cut) + j] = sun.irradiance_bound(n)
+            value[:, len(self.cut) + j] = sun.irradiance_bound(n) * self.scale
         total = value.sum(axis=1, keepdims=True)
         return np.where(total > 0.0, value / np.where(total > 0.0, total, 1.0), 1.0 / value.shape[1])
 
