@@ -16,11 +16,13 @@ more lights than that), in proportion to their importance at its point, computed
 its samples (the cut of Walter et al.'s Lightcuts, 2005, fixed here rather than refined per point); below a node of
 the cut it walks down to one light, at each node choosing a child in proportion to the child's importance (Conty
 Estevez and Kulla, sec. 5.1), every sample of a batch taking one step per tree level. A light's probability is the
-product of the choices on its path. Measured on 200 point lights in a room (``bench/many_lights.py``), the choices
-of a walk from the root cost more variance than the light tree saves against one by power over distance: the
-bounds of a node near x say little about which of its lights is near; at the leaves the importance is exact.
+product of the choices on its path. On the stress suite's 200 point lights in a room, one light sample's relative
+standard deviation (unshadowed, mean over the pixels) was 0.58 walking from the root, 0.21 below a cut of 64 nodes
+and 0.011 choosing among every leaf, against 0.37 for the sampler before (power / d^2, no normal, 10 % uniform):
+the bounds of a node near x say little about which of its lights is near, at a leaf the importance is exact.
 
-The tree is built top down, each node split where the surface area orientation heuristic (sec. 4.4) is lowest.
+With more lights than the cut holds, the tree is built top down, each node split where the surface area orientation
+heuristic (sec. 4.4) is lowest (with fewer, no sample walks it and its shape does not matter).
 Distant lights (the sun) have no position: each is a choice of its own beside the cut, its importance the
 irradiance it can bring at the normal. A small share of the samples (``FLOOR``) picks a light uniformly, so that
 no light that could matter is left with probability zero by a bound's rounding.
