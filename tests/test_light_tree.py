@@ -90,7 +90,7 @@ def test_direct_light_equals_the_sum_of_each_lights_own(cut):
     lights = LightSet(scene)
     assert len(lights.local) == 40
     lights.tree = LightTree(lights.local, cut)
-    tree = diffuse_direct(surface, lights, tracer, 2048, np.random.default_rng(1))[:, 0]
+    tree = diffuse_direct(surface, lights, tracer, 8192, np.random.default_rng(1))[:, 0]
     one_by_one = sum(diffuse_direct(surface, LightSet(lights=[light], center=lights.center, radius=lights.radius),
                                     tracer, 256, np.random.default_rng(2 + i))[:, 0]
                      for i, light in enumerate(lights.local))

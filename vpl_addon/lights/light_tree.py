@@ -22,7 +22,7 @@ and 0.011 choosing among every leaf, against 0.37 for the sampler before (power 
 the bounds of a node near x say little about which of its lights is near, at a leaf the importance is exact.
 
 With more lights than the cut holds, the tree is built top down, each node split where the surface area orientation
-heuristic (sec. 4.4) is lowest (with fewer, no sample walks it and its shape does not matter).
+heuristic (sec. 4.4) is lowest, a node of a few lights in halves (with fewer, no sample walks the tree: halves).
 Distant lights (the sun) have no position: each is a choice of its own beside the cut, its importance the
 irradiance it can bring at the normal. A small share of the samples (``FLOOR``) picks a light uniformly, so that
 no light that could matter is left with probability zero by a bound's rounding.
@@ -37,6 +37,7 @@ FLOOR = 0.01  # share of the light samples that choose a light uniformly
 CUT = 256  # the most nodes the first choice is made among, at every point
 CHUNK = 1 << 18  # pairs of point and node whose importance is computed at a time
 BUCKETS = 12  # candidate split planes per axis when building
+HEURISTIC_LEAST = 8  # a node of this many lights or fewer is split in halves, without the heuristic
 ONE_BELOW = np.nextafter(1.0, 0.0)
 
 
@@ -120,10 +121,10 @@ class LightTree:
             nodes += [None, None]
             nodes[at] = (0.5 * (lo + hi), 0.5 * np.linalg.norm(hi - lo), cone[0][0], cone[1][0], cone[2][0],
                          intensity[members].sum(), children, -1)
-            if len(placed) > cut:
+            if len(placed) > cut and len(members) > HEURISTIC_LEAST:
                 left = _split(members, center, radius, axis, theta_o, theta_e, intensity)
-            else:  # every leaf is in the cut: no sample walks the tree, its shape does not matter
-                left = np.arange(len(members)) < len(members) // 2
+            else:  # a few lights, or every leaf in the cut (no sample walks the tree then): halves
+                left = _halves(center[members])
             stack += [(members[left], children[0]), (members[~left], children[1])]
         center, radius, axis, spread, emit, intensity, self.children, self.light = map(np.array, zip(*nodes))
         # one row per node, gathered at once: centre, radius^2, intensity, axis, cos and sin theta_o, cos theta_e
@@ -301,7 +302,7 @@ def _split(members, center, radius, axis, theta_o, theta_e, intensity):
     """(len(members),) bool: the lights of the left child, where the surface area orientation heuristic
     (Conty Estevez and Kulla, sec. 4.4) is lowest among ``BUCKETS`` planes across each axis of the centroids'
     box: intensity x box area x cone measure summed over the two sides, times the box's longest extent over its
-    extent along the axis (their K_r, against thin boxes). Halves by index where the lights share one centroid."""
+    extent along the axis (their K_r, against thin boxes). Halves (``_halves``) where the lights share one centroid."""
     c = center[members]
     lo, hi = (c - radius[members, None]).min(axis=0), (c + radius[members, None]).max(axis=0)
     extent = hi - lo
@@ -315,9 +316,14 @@ def _split(members, center, radius, axis, theta_o, theta_e, intensity):
                    for side in (left, ~left)) * extent.max() / max(extent[a], 1e-30)
         if len(cost) and cost.min() < best:
             best, choice = cost.min(), left[np.argmin(cost)]
-    if choice is None:
-        choice = np.arange(len(members)) < len(members) // 2
-    return choice
+    return _halves(c) if choice is None else choice
+
+
+def _halves(c):
+    """(len(c),) bool: the lights of the left child, the lower half of centroids c along their longest extent."""
+    left = np.zeros(len(c), bool)
+    left[np.argsort(c[:, np.argmax(c.max(axis=0) - c.min(axis=0))], kind="stable")[:len(c) // 2]] = True
+    return left
 
 
 def _side_cost(side, members, center, radius, axis, theta_o, theta_e, intensity):
