@@ -146,7 +146,7 @@ def _bake_on_cluster(args, scene, frames, t0) -> int:
     """``bake`` in chunks on Dask workers (``operators/farm.py``): an existing scheduler's, or N processes here."""
     import importlib.util
     from . import farm
-    from .bake import Bake, BakeError
+    from .bake import Bake, BakeError, frame_path
     if importlib.util.find_spec("distributed") is None:
         raise UserError("--workers and --scheduler need Dask: pip install 'dask[distributed]'")
     client = cluster = None
@@ -158,6 +158,10 @@ def _bake_on_cluster(args, scene, frames, t0) -> int:
             bake = Bake(scene, args.output, frames, args.overwrite)
         except BakeError as err:
             raise UserError(str(err)) from None
+        done = [f for f in frames if os.path.exists(frame_path(bake.out_dir, f))]
+        if len(done) == len(frames):  # nothing to do: no cluster started, no task sent
+            print(f"skipped {len(done)} finished frames\nbaked 0 frames to {bake.out_dir}")
+            return 0
         if client is None:
             client = farm.local_cluster(args.workers)
         workers = len(client.scheduler_info().get("workers", {}))
@@ -165,7 +169,8 @@ def _bake_on_cluster(args, scene, frames, t0) -> int:
         print(f"baking frames {frames.start}:{frames.stop - 1} in chunks of {size} on "
               f"{args.scheduler or 'a local cluster'} ({workers} workers)", flush=True)
         from tqdm import tqdm
-        with tqdm(total=len(frames), unit="frame", desc="bake", file=sys.stderr, dynamic_ncols=True) as bar:
+        with tqdm(total=len(frames), initial=len(done), unit="frame", desc="bake", file=sys.stderr,
+                  dynamic_ncols=True) as bar:
             def progress(done):
                 bar.update(done - bar.n)
             report = farm.bake_on_cluster(client, bake, os.path.abspath(args.scene),

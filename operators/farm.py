@@ -45,7 +45,7 @@ from dataclasses import dataclass, field
 # Frames per chunk (``--chunk-size``): bench/farm.py, 24 frames of the example sequences on 2 workers.
 DEFAULT_CHUNK_SIZE = 6
 STAGING_DIR = ".farm"
-CONNECT_SECONDS = 10
+CONNECT_SECONDS = 5
 
 
 class FarmError(Exception):
