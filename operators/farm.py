@@ -127,8 +127,12 @@ def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int,
                 time.sleep(0.2)
                 continue
             lost_since = None
-            for future in [f for f in futures if f.status in ("finished", "error")]:
+            for future in [f for f in futures if f.status != "pending"]:
                 chunk = futures.pop(future)
+                if future.status in ("cancelled", "lost"):  # the scheduler forgot it (restarted)
+                    raise FarmError(f"the Dask scheduler lost the task of frames {chunk.start}:{chunk.stop - 1}; "
+                                    f"{len(finished())} of {len(frames)} frames are in {out_dir}: run the same "
+                                    f"command again to bake the others")
                 result = _result(future, f"frames {chunk.start}:{chunk.stop - 1}")
                 report.rendered += result["rendered"]
                 report.replayed += len(result["replayed"])
@@ -140,8 +144,8 @@ def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int,
                 shown = done
             time.sleep(0.2)
     finally:
-        for future in futures:
-            future.cancel()
+        if futures and client.status == "running":  # this run failed: the other chunks are not wanted
+            client.cancel(list(futures))
         _clear_staging(out_dir)
     report.rendered.sort()
     return report

@@ -190,3 +190,52 @@ def test_a_folder_holding_another_bake_or_being_baked_is_refused_in_one_line(clu
                                    "--method", "ir")
     assert code == 0, stderr
     assert frames_in(out) == [f"frame_{f:04d}.exr" for f in range(1, 5)] and not list(claims.iterdir())
+
+
+def test_a_scheduler_restart_and_a_rerun_complete_the_bake_without_rendering_finished_frames(ext, tmp_path):
+    """The scheduler (and its workers) go away mid-bake: the command ends with one line; against a new scheduler the
+    same command renders only the missing frames, and they are the frames of one uninterrupted bake."""
+    from vpl_gi.operators import bake, cli
+    flags = ["--method", "ir", "--percentage", "50", "--samples", "4", "--light-samples", "2", "--vpls", "256"]
+    scene_file = EXAMPLES / "seq_moving_object.blend"
+    out = tmp_path / "farm"
+
+    def command(address):
+        return [sys.executable, "-m", "vpl_addon", "bake", str(scene_file), "--frames", "1:8", "-o", str(out),
+                *flags, "--scheduler", address, "--chunk-size", "4"]
+    first = distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                                     memory_limit=0)
+    proc = subprocess.Popen(command(first.scheduler_address), cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        deadline = time.monotonic() + 120
+        while proc.poll() is None and time.monotonic() < deadline and not frames_in(out):
+            time.sleep(0.01)
+        with distributed.Client(first, set_as_default=False) as client:
+            workers = client.run(os.getpid).values()
+        for pid in workers:  # the cluster goes down at once, its chunks unfinished
+            os.kill(pid, signal.SIGKILL)
+        first.close()
+        stdout, stderr = proc.communicate(timeout=120)
+    finally:
+        proc.kill()
+    assert proc.returncode == 2 and "run the same command again" in one_line(stderr), stdout + stderr
+    done = {p.name: p.stat().st_mtime_ns for p in out.glob("frame_*.exr")}
+    assert 1 <= len(done) < 8 and not list((out / ".bake-claims").iterdir())
+
+    second = distributed.LocalCluster(n_workers=2, threads_per_worker=1, host="127.0.0.1", dashboard_address=None,
+                                      memory_limit=0)
+    try:
+        proc = subprocess.run(command(second.scheduler_address), cwd=ROOT, env={**os.environ, "PYTHONPATH": str(ROOT)},
+                              capture_output=True, text=True, timeout=300)
+    finally:
+        second.close()
+    assert proc.returncode == 0, proc.stderr
+    assert f"skipped {len(done)} finished frames" in proc.stdout and f"baked {8 - len(done)} frames" in proc.stdout
+    assert done == {name: (out / name).stat().st_mtime_ns for name in done}  # not rendered again
+    scene = cli._prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:8", "-o", "x",
+                                                        *flags]))
+    bake.Bake(scene, str(tmp_path / "whole"), range(1, 9)).run()
+    assert frames_in(out) == frames_in(tmp_path / "whole") == [f"frame_{f:04d}.exr" for f in range(1, 9)]
+    for name in frames_in(out):
+        assert (out / name).read_bytes() == (tmp_path / "whole" / name).read_bytes(), name
