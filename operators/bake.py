@@ -96,18 +96,15 @@ class BakeClaim:
     def acquire(self) -> None:
         os.makedirs(self.folder, exist_ok=True)
         me = {"host": socket.gethostname(), "pid": os.getpid(), "frames": [self.frames.start, self.frames.stop - 1]}
-        for _ in range(2):
+        while True:
             try:
                 fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+                break
             except FileExistsError:
-                self._refuse_unless_stale(self.path)
-                continue
-            with os.fdopen(fd, "w") as f:
-                json.dump(me, f)
-            self.held = True
-            break
-        else:
-            self._refuse_unless_stale(self.path)
+                self._refuse_unless_stale(self.path)  # removed when stale: try again
+        with os.fdopen(fd, "w") as f:
+            json.dump(me, f)
+        self.held = True
         for other in glob.glob(os.path.join(glob.escape(self.folder), "*.json")):
             m = re.fullmatch(r"(-?\d+)-(-?\d+)\.json", os.path.basename(other))
             if other != self.path and m and int(m.group(1)) < self.frames.stop and int(m.group(2)) >= self.frames.start:
