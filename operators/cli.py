@@ -173,8 +173,9 @@ def _bake_on_cluster(args, scene, frames, t0) -> int:
                   dynamic_ncols=True) as bar:
             def progress(done):
                 bar.update(done - bar.n)
+            threads = None if args.workers is None else max(1, (os.cpu_count() or 1) // args.workers)
             report = farm.bake_on_cluster(client, bake, os.path.abspath(args.scene),
-                                          {k: v for k, v in vars(args).items() if k != "run"}, size, progress)
+                                          {k: v for k, v in vars(args).items() if k != "run"}, size, progress, threads)
     except farm.FarmError as err:
         raise UserError(str(err)) from None
     finally:
@@ -185,9 +186,13 @@ def _bake_on_cluster(args, scene, frames, t0) -> int:
             client.close()
         if cluster is not None:
             cluster.close()
+    for chunk in sorted(report.chunks, key=lambda c: c["frames"]):
+        print(f"frames {chunk['frames'][0]}:{chunk['frames'][1]} on {chunk['host']} (pid {chunk['pid']}): "
+              f"{len(chunk['rendered'])} rendered, {len(chunk['replayed'])} placed to continue the sequence, "
+              f"{chunk['seconds']:.1f} s")
     if report.skipped:
         print(f"skipped {len(report.skipped)} finished frames")
-    hosts = sorted({(c["host"], c["pid"]) for c in report.chunks})
+    hosts = {(c["host"], c["pid"]) for c in report.chunks}
     print(f"baked {len(report.rendered)} frames to {bake.out_dir} in {time.perf_counter() - t0:.1f} s: "
           f"{len(report.chunks)} chunks on {len(hosts)} worker processes, {report.replayed} frames' lights placed "
           f"to continue the sequence across chunks")

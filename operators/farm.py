@@ -93,9 +93,11 @@ class FarmReport:
     chunks: list[dict] = field(default_factory=list)  # per chunk run: frames, host, pid, seconds
 
 
-def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int, progress=None) -> FarmReport:
+def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int, progress=None,
+                    threads: int | None = None) -> FarmReport:
     """Bake ``bake``'s frames (the client's ``Bake``: the frames claimed, the settings recorded) in chunks of
-    ``chunk_size`` on ``client``'s workers; ``flags`` are the command line's (``cli._prepare_scene``).
+    ``chunk_size`` on ``client``'s workers; ``flags`` are the command line's (``cli._prepare_scene``), ``threads`` the
+    CPU threads a worker renders on (None: the scene's setting, every core; the pixels are the same).
     ``progress(done)`` is called with the frames in the folder as they appear. FarmError for a chunk that failed."""
     from .bake import frame_path
 
@@ -111,7 +113,7 @@ def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int,
     futures = {}
     for c in todo:
         task = {"scene": scene_path, "sha256": digest, "flags": flags, "out": out_dir,
-                "frames": [c.start, c.stop - 1], "first": frames.start}
+                "frames": [c.start, c.stop - 1], "first": frames.start, "threads": threads}
         key = f"vpl-gi-bake-{c.start}-{c.stop - 1}-{digest[:8]}-{os.urandom(4).hex()}"
         futures[client.submit(pickle.loads, _runs_when_loaded("operators.farm.render_chunk", task), key=key,
                               pure=False)] = c
@@ -244,6 +246,8 @@ def _render_chunk(task: dict) -> dict:
 
     try:
         scene = _prepare_scene(argparse.Namespace(**task["flags"]))
+        if task.get("threads"):  # workers that share a machine share its cores
+            scene.render.threads_mode, scene.render.threads = "FIXED", task["threads"]
         bake = Bake(scene, task["out"], range(first, last + 1), first=task["first"], claim=False)
         report = bake.run(render_frame=render_frame)
     except (UserError, BakeError, OSError) as err:
