@@ -42,7 +42,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-# Frames per chunk (``--chunk-size``): bench/farm.py, 24 frames of the example sequences on 2 workers.
+# Frames per chunk (``--chunk-size``): 4 chunks of a 24-frame shot, 2 per worker of two; not yet timed on an idle
+# machine (bench/farm.py --chunk-sizes 4,6,8,12 does).
 DEFAULT_CHUNK_SIZE = 6
 STAGING_DIR = ".farm"
 CONNECT_SECONDS = 5
