@@ -42,8 +42,8 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-# Frames per chunk (``--chunk-size``): 4 chunks of a 24-frame shot, 2 per worker of two; not yet timed on an idle
-# machine (bench/farm.py --chunk-sizes 4,6,8,12 does).
+# Frames per chunk (``--chunk-size``): 4 chunks of a 24-frame shot, 2 per worker of two; chunks of 4, 6 and 12 took
+# the same time in bench/farm.py (ir, 2 workers), where the fixed costs of the cluster dominate.
 DEFAULT_CHUNK_SIZE = 6
 STAGING_DIR = ".farm"
 CONNECT_SECONDS = 5
