@@ -1,0 +1,289 @@
+"""Progressive rendering for the interactive viewport: a first image within moments of a change, then refinement,
+on a background thread that any new change stops.
+
+A change (``ProgressiveRenderer.start``: new scene data, a new view, new settings) stops the running work and starts
+the ``plan``:
+
+1. *preview*: the frame at ``1 / pixel_size`` of its resolution (Cycles' viewport Pixel Size), one camera sample,
+   one light sample, and a light budget ``preview_share`` times smaller than the render's (VPLs, VBNL's photons
+   and gather samples), so that the first image costs a small fraction of a full pass;
+2. *refine*: full-resolution passes of one camera sample and one light sample each, with the render's light budget,
+   each with its own pixel seed, averaged into the image (``samples`` passes at most, or until ``time_limit``).
+
+What a change does not touch is kept, by ``sequence.state.SequenceState`` (the machinery that bakes animations): each
+light budget keeps one state, and each state sees the scenes it renders as the frames of a sequence. A camera move
+keeps the BVH and, for the methods whose lights ignore the camera (``ir``'s kept light paths, ``bidir``'s and
+``vbnl``'s kept light paths / photons, ``smc``'s VPLs), traces no light path; ``vbnl``'s camera-driven lights are
+placed again. A material change keeps the BVH (light paths are traced again). A moved object rebuilds the BVH and
+re-traces only the light paths that cross its old or new box (Moreau et al.). Changed settings start afresh.
+
+Stopping: the tracer a step uses (``Interruptible``) raises ``Cancelled`` at its next call once a stop is asked for,
+and ``render``'s ``progress`` returns False after its next block of pixels, so a stop reaches every stage that
+traces rays (placing lights, the G-buffer, shadow rays, the gather) within one ray batch or block. Blocks are
+``BLOCK_PIXELS`` small for that. A state whose lights were being placed when the work stopped forgets its lights
+(not its BVH): they may be half made.
+"""
+from __future__ import annotations
+
+import threading
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from .core import passes as P
+from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
+from .render import Cancelled, RenderSettings, render
+from .sequence.state import SequenceState
+
+BLOCK_PIXELS = 1024  # pixels per block of a viewport pass: a few tens of milliseconds of work each
+
+
+@dataclass
+class ViewportSettings:
+    pixel_size: int = 4  # the first image's pixels are this many of the frame's wide and high
+    samples: int = 16  # full-resolution passes averaged (a camera and a light sample per pixel each)
+    time_limit: float = 0.0  # seconds after a change when refinement stops (0: ``samples`` alone decides)
+    preview_share: int = 16  # the first image's light budget is the render's divided by this
+    denoise: bool = False  # OpenImageDenoise on the averaged image after each pass
+
+    def __post_init__(self):
+        if self.pixel_size < 1 or self.samples < 1 or self.preview_share < 1 or self.time_limit < 0:
+            raise ValueError(f"viewport settings out of range: {self}")
+
+
+@dataclass
+class Step:
+    """One pass of the plan: its pixel size, its render settings and the name of the light state it keeps."""
+    name: str  # "preview" or "refine"
+    pixel_size: int
+    settings: RenderSettings
+    lights: str  # "preview" or "full": which ``SequenceState`` keeps its BVH and lights
+
+
+def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str, ...]) -> list[Step]:
+    """The passes a change starts, from the render's ``settings`` (method, light budget, seed, film...) and the
+    viewport's; each writes ``passes`` (Combined always)."""
+    if viewport.denoise:
+        passes = tuple(passes) + (P.DENOISING_ALBEDO, P.DENOISING_NORMAL)
+    one = replace(settings, samples=1, light_samples=min(settings.light_samples, 1), indirect_samples=1,
+                  denoise=False, passes=tuple(dict.fromkeys((P.COMBINED,) + tuple(passes))),
+                  placement_seed=settings.seed, block_pixels=BLOCK_PIXELS)
+    vbnl = settings.placement.vbnl
+    per_pass = replace(vbnl, sampling=replace(vbnl.sampling, samples=min(vbnl.sampling.samples, 4)))
+    full = replace(settings.placement, vbnl=per_pass)
+    share = viewport.preview_share
+    preview = replace(full, vpls=max(64, full.vpls // share),
+                      vbnl=replace(per_pass, photons=max(4096, vbnl.photons // share),
+                                   sampling=replace(per_pass.sampling, samples=1)))
+    steps = [Step("preview", viewport.pixel_size, replace(one, placement=preview), "preview")]
+    return steps + [Step("refine", 1, replace(one, placement=full, seed=settings.seed + k), "full")
+                    for k in range(viewport.samples)]
+
+
+class Interruptible:
+    """A tracer whose every call first checks ``stop``: ``Cancelled`` once it is set."""
+
+    def __init__(self, tracer, stop: threading.Event):
+        self._tracer, self._stop = tracer, stop
+
+    def __getattr__(self, name):
+        value = getattr(self._tracer, name)
+        if not callable(value):
+            return value
+
+        def checked(*args, **kwargs):
+            if self._stop.is_set():
+                raise Cancelled()
+            return value(*args, **kwargs)
+        return checked
+
+
+class KeptLights(SequenceState):
+    """The state of one light budget across the viewport's changes (a ``SequenceState`` whose frames are the scene
+    after each change). One job at a time renders with it (``hold``); the tracers it hands out stop when that job's
+    ``stop`` is set."""
+
+    def __init__(self, method: str):
+        super().__init__(method)
+        self.stop = threading.Event()
+        self._lock = threading.Lock()
+
+    def hold(self, stop: threading.Event) -> bool:
+        """Take the state for the job whose flag is ``stop``, waiting while another job still has it; False if
+        ``stop`` is set meanwhile."""
+        while not self._lock.acquire(timeout=0.005):
+            if stop.is_set():
+                return False
+        self.stop = stop
+        return True
+
+    def release(self) -> None:
+        self._lock.release()
+
+    def begin(self, scene, frame=None, threads=None):
+        return Interruptible(super().begin(scene, frame, threads), self.stop)
+
+    def forget_lights(self) -> None:
+        """Forget the lights and what placed them (the next frame places them as a first frame), keeping the BVH."""
+        self.snapshot = self.lights = self.method_state = self.rng_state = None
+
+
+@dataclass
+class Frame:
+    """An image the viewport shows: Combined (H,W,4, row 0 at the top) and the other passes, averaged over the
+    passes done so far."""
+    passes: dict[str, np.ndarray]
+    step: str  # the step that made it: "preview" or "refine"
+    count: int  # full-resolution passes averaged (0 for the preview)
+    seconds: float  # since the change that started the work
+    info: dict = field(default_factory=dict)  # the last pass's method info (light paths traced, reused...)
+    rays: int = 0  # rays the last pass traced
+    number: int = 0  # the renderer's count of images made, so a viewer uploads each image once
+
+    @property
+    def combined(self) -> np.ndarray:
+        return self.passes[P.COMBINED]
+
+
+class ProgressiveRenderer:
+    """Renders scenes progressively on background threads (see the module's docstring). The latest image is
+    ``frame``; ``status`` is one line on what it is doing or what went wrong; ``on_image()``, if given, is called
+    from the worker after each new image (to ask for a redraw).
+
+    Each change is a job with its own thread and stop flag. ``start`` sets the running job's flag and starts the new
+    one at once: the old job ends at its next ray batch or block, and until it has, it shows nothing more and keeps
+    the light state it holds, which the new job waits for (``KeptLights.hold``) only when it needs that state."""
+
+    def __init__(self, on_image=None):
+        self.on_image = on_image
+        self.frame: Frame | None = None
+        self.status = ""
+        self.warnings: list[str] = []
+        self.stopping: threading.Thread | None = None  # the job the last change stopped (until it has ended)
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._shown = threading.Lock()  # a job shows its image only while its flag is not set
+        self._states: dict[str, KeptLights] = {}
+        self._key = None  # the settings the states were made for
+        self._made = 0  # images made
+
+    def start(self, scene, settings: RenderSettings, viewport: ViewportSettings,
+              passes: tuple[str, ...] = (P.COMBINED,)) -> None:
+        """Stop the running job and render ``scene`` progressively."""
+        started = time.perf_counter()
+        steps = plan(settings, viewport, passes)
+        key = repr([(s.settings.method, s.settings.placement, s.settings.threads) for s in steps[:2]])
+        if key != self._key:  # a new method or light budget: nothing kept is valid
+            self.stop()
+            self.close_states()
+            self._states = {name: KeptLights(settings.method) for name in ("preview", "full")}
+            self._key = key
+        with self._shown:
+            self._stop.set()
+            self.stopping = self._thread
+            self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._work, args=(scene, steps, viewport, started, self._stop),
+                                        name="VPL GI viewport", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> float:
+        """Stop the running job and wait until it has ended; the seconds that took."""
+        started = time.perf_counter()
+        self._stop.set()
+        for thread in (self._thread, self.stopping):
+            if thread is not None:
+                thread.join()
+        return time.perf_counter() - started
+
+    @property
+    def busy(self) -> bool:
+        return self._thread is not None and self._thread.is_alive()
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Wait until the running job is done (or ``timeout`` seconds); True if it is."""
+        if self._thread is not None:
+            self._thread.join(timeout)
+        return not self.busy
+
+    def close_states(self) -> None:
+        for state in self._states.values():
+            state.close()
+        self._states = {}
+
+    def close(self) -> None:
+        self.stop()
+        self.close_states()
+
+    # -- the worker ------------------------------------------------------------------------------------------------
+    def _say(self, stop: threading.Event, status: str) -> None:
+        with self._shown:
+            if not stop.is_set():
+                self.status = status
+
+    def _work(self, scene, steps: list[Step], viewport: ViewportSettings, started: float,
+              stop: threading.Event) -> None:
+        total: dict[str, np.ndarray] = {}
+        count = 0
+        for step in steps:
+            late = viewport.time_limit and time.perf_counter() - started >= viewport.time_limit
+            if step.name == "refine" and count and late:
+                break
+            self._say(stop, f"{'first image' if step.name == 'preview' else f'pass {count + 1}'} of {len(steps) - 1}")
+            state = self._states[step.lights]
+            if not state.hold(stop):
+                return
+            placed = []  # render calls progress once its lights are placed
+
+            def progress(fraction, text):
+                placed.append(fraction)
+                return not stop.is_set()
+            size = step.pixel_size
+            camera = scene.camera
+            small = replace(scene, camera=replace(camera, width=-(-camera.width // size), region=None,
+                                                  height=-(-camera.height // size)))
+            try:
+                result = render(small if size > 1 else scene, step.settings, progress, sequence=state)
+            except Cancelled:
+                if not placed:
+                    state.forget_lights()
+                return
+            except Exception as err:  # a bug: the last image stays, the status line says what failed
+                state.forget_lights()
+                self._say(stop, " ".join(f"render failed ({type(err).__name__}: {err}); please report".split()))
+                return
+            finally:
+                state.release()
+            if step.name == "refine":
+                count += 1
+                for name, image in result.passes.items():
+                    total[name] = total.get(name, 0.0) + image
+                images = {name: image / count for name, image in total.items()}
+                if viewport.denoise:
+                    images[P.COMBINED] = self._denoised(images, step.settings.threads, stop, result.warnings)
+            else:
+                images = result.passes
+            with self._shown:
+                if stop.is_set() or images[P.COMBINED] is None:
+                    return
+                self._made += 1
+                self.frame = Frame(images, step.name, count, time.perf_counter() - started, result.info,
+                                   result.rays, self._made)
+                self.warnings = result.warnings
+            if self.on_image is not None:
+                self.on_image()
+        self._say(stop, f"done: {count} passes in {time.perf_counter() - started:.1f} s")
+
+    @staticmethod
+    def _denoised(images, threads, stop: threading.Event, warnings: list[str]) -> np.ndarray | None:
+        """Combined of the averaged ``images`` denoised (None if ``stop`` is set meanwhile); as it is, with a
+        warning added to ``warnings``, without OIDN."""
+        combined = images[P.COMBINED].copy()
+        try:
+            combined[..., :3] = denoise(combined[..., :3], images[P.DENOISING_ALBEDO], images[P.DENOISING_NORMAL],
+                                        threads, lambda done: not stop.is_set())
+        except DenoiseCancelled:
+            return None
+        except DenoiserMissing as err:
+            warnings.append(f"{err}: the viewport is not denoised")
+        return combined
