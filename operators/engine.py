@@ -95,12 +95,13 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
     bl_use_postprocess = True
     bl_use_eevee_viewport = True  # Material Preview shading: EEVEE, as with Cycles
 
-    def __init__(self):
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)  # Blender makes the RenderEngine's own data here
         self._viewport = None  # the 3D view's progressive render, made by its first view_update
         self._texture = None
 
     def __del__(self):
-        if getattr(self, "_viewport", None) is not None:
+        if getattr(self, "_viewport", None) is not None:  # its worker threads end with it
             self._viewport.close()
 
     @staticmethod
