@@ -68,15 +68,13 @@ class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):
     bl_label = "Viewport"
     bl_context = "render"
 
+    SETTINGS = ("viewport_samples", "viewport_time_limit", "viewport_pixel_size", "viewport_denoise")
+
     def draw(self, context):
-        layout = self.layout
-        layout.use_property_split = True
-        settings = context.scene.vpl_gi
-        col = layout.column()
-        col.prop(settings, "viewport_samples", text="Samples")
-        col.prop(settings, "viewport_time_limit")
-        col.prop(settings, "viewport_pixel_size")
-        col.prop(settings, "viewport_denoise")
+        self.layout.use_property_split = True
+        column = self.layout.column()
+        for name in self.SETTINGS:
+            column.prop(context.scene.vpl_gi, name)
 
 
 class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
