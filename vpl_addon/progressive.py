@@ -5,13 +5,17 @@ A change (``ProgressiveRenderer.start``: new scene data, a new view, new setting
 the ``plan``:
 
 1. *preview*: the frame at ``1 / pixel_size`` of its resolution (Cycles' viewport Pixel Size), one camera sample,
-   one light sample, and a light budget ``preview_share`` times smaller than the render's (VPLs, VBNL's photons
-   and gather samples), so that the first image costs a small fraction of a full pass;
-2. *refine*: full-resolution passes of one camera sample and one light sample each, with the render's light budget,
-   each with its own pixel seed, averaged into the image (``samples`` passes at most, or until ``time_limit``).
+   one light sample, and a light budget ``BUDGETS["preview"]`` times smaller than the render's (VPLs, VBNL's
+   photons; one VBNL gather sample), so that the first image costs a small fraction of a full pass;
+2. *refine*: full-resolution passes of one camera sample and one light sample each (at most four VBNL gather
+   samples), each with its own pixel seed, averaged into the image (``samples`` passes at most, or until
+   ``time_limit``): more VPLs as they go, the first pass with a quarter of the render's light budget, the others
+   with all of it.
 
 What a change does not touch is kept, by ``sequence.state.SequenceState`` (the machinery that bakes animations): each
-light budget keeps one state, and each state sees the scenes it renders as the frames of a sequence. A camera move
+light budget keeps one state (``KeptLights``: its BVH, its lights and light paths), which sees the scenes it renders
+as the frames of a sequence; a state is used by one job at a time, so each keeps a BVH of its own (three builds
+after a geometry change, each when its step first runs). A camera move
 keeps the BVH and, for the methods whose lights ignore the camera (``ir``'s kept light paths, ``bidir``'s and
 ``vbnl``'s kept light paths / photons, ``smc``'s VPLs), traces no light path; ``vbnl``'s camera-driven lights are
 placed again. A material change keeps the BVH (light paths are traced again). A moved object rebuilds the BVH and
@@ -37,6 +41,8 @@ from .render import Cancelled, RenderSettings, render
 from .sequence.state import SequenceState
 
 BLOCK_PIXELS = 1024  # pixels per block of a viewport pass: a few tens of milliseconds of work each
+# the light budget (VPLs, VBNL's photons) of each light state: the render's divided by this
+BUDGETS = {"preview": 16, "first": 4, "full": 1}
 
 
 @dataclass
@@ -44,11 +50,10 @@ class ViewportSettings:
     pixel_size: int = 4  # the first image's pixels are this many of the frame's wide and high
     samples: int = 16  # full-resolution passes averaged (a camera and a light sample per pixel each)
     time_limit: float = 0.0  # seconds after a change when refinement stops (0: ``samples`` alone decides)
-    preview_share: int = 16  # the first image's light budget is the render's divided by this
     denoise: bool = False  # OpenImageDenoise on the averaged image after each pass
 
     def __post_init__(self):
-        if self.pixel_size < 1 or self.samples < 1 or self.preview_share < 1 or self.time_limit < 0:
+        if self.pixel_size < 1 or self.samples < 1 or self.time_limit < 0:
             raise ValueError(f"viewport settings out of range: {self}")
 
 
@@ -58,7 +63,7 @@ class Step:
     name: str  # "preview" or "refine"
     pixel_size: int
     settings: RenderSettings
-    lights: str  # "preview" or "full": which ``SequenceState`` keeps its BVH and lights
+    lights: str  # a key of ``BUDGETS``: the light state (``KeptLights``) that keeps its BVH and lights
 
 
 def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str, ...]) -> list[Step]:
@@ -70,15 +75,18 @@ def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str
                   denoise=False, passes=tuple(dict.fromkeys((P.COMBINED,) + tuple(passes))),
                   placement_seed=settings.seed, block_pixels=BLOCK_PIXELS)
     vbnl = settings.placement.vbnl
-    per_pass = replace(vbnl, sampling=replace(vbnl.sampling, samples=min(vbnl.sampling.samples, 4)))
-    full = replace(settings.placement, vbnl=per_pass)
-    share = viewport.preview_share
-    preview = replace(full, vpls=max(64, full.vpls // share),
-                      vbnl=replace(per_pass, photons=max(4096, vbnl.photons // share),
-                                   sampling=replace(per_pass.sampling, samples=1)))
-    steps = [Step("preview", viewport.pixel_size, replace(one, placement=preview), "preview")]
-    return steps + [Step("refine", 1, replace(one, placement=full, seed=settings.seed + k), "full")
-                    for k in range(viewport.samples)]
+
+    def budget(name):
+        share = BUDGETS[name]
+        vpls, photons = settings.placement.vpls, vbnl.photons
+        return replace(settings.placement, vpls=min(vpls, max(64, vpls // share)),
+                       vbnl=replace(vbnl, photons=min(photons, max(4096, photons // share)), sampling=replace(
+                           vbnl.sampling, samples=min(vbnl.sampling.samples, 1 if name == "preview" else 4))))
+    steps = [Step("preview", viewport.pixel_size, replace(one, placement=budget("preview")), "preview")]
+    for k in range(viewport.samples):
+        lights = "first" if k == 0 else "full"
+        steps.append(Step("refine", 1, replace(one, placement=budget(lights), seed=settings.seed + k), lights))
+    return steps
 
 
 class Interruptible:
@@ -173,11 +181,11 @@ class ProgressiveRenderer:
         """Stop the running job and render ``scene`` progressively."""
         started = time.perf_counter()
         steps = plan(settings, viewport, passes)
-        key = repr([(s.settings.method, s.settings.placement, s.settings.threads) for s in steps[:2]])
+        key = repr([(s.settings.method, s.settings.placement, s.settings.threads) for s in steps[:3]])
         if key != self._key:  # a new method or light budget: nothing kept is valid
             self.stop()
             self.close_states()
-            self._states = {name: KeptLights(settings.method) for name in ("preview", "full")}
+            self._states = {name: KeptLights(settings.method) for name in BUDGETS}
             self._key = key
         with self._shown:
             self._stop.set()
