@@ -68,6 +68,25 @@ def _moved(camera, dx=0.05):
     return replace(camera, to_world=m)
 
 
+def test_the_plan_refines_resolution_samples_and_light_budget():
+    """After the coarse first image, full-resolution passes of one sample each, each with its own seed, with more
+    VPLs and photons as they go, never more than the render's own budget."""
+    from vpl_addon.progressive import ViewportSettings, plan
+    from vpl_addon.render import RenderSettings
+    settings = RenderSettings(samples=64, light_samples=8, seed=7)
+    steps = plan(settings, ViewportSettings(pixel_size=4, samples=3), ("Combined", INDIRECT))
+    assert [(s.name, s.pixel_size, s.lights) for s in steps] == [
+        ("preview", 4, "preview"), ("refine", 1, "first"), ("refine", 1, "full"), ("refine", 1, "full")]
+    assert [s.settings.seed for s in steps[1:]] == [7, 8, 9]
+    assert all(s.settings.samples == s.settings.light_samples == 1 and not s.settings.denoise for s in steps)
+    vpls = [s.settings.placement.vpls for s in steps]
+    photons = [s.settings.placement.vbnl.photons for s in steps]
+    assert vpls == [256, 1024, 4096, 4096] and photons == [16384, 65536, 262144, 262144]
+    tiny = plan(replace(settings, placement=replace(settings.placement, vpls=16)), ViewportSettings(), ())
+    assert {s.settings.placement.vpls for s in tiny} == {16}
+    assert steps[0].settings.passes == ("Combined", INDIRECT)
+
+
 def test_view_camera_of_the_camera_matrices_is_the_scene_camera(cornell, ext):
     """A 3D view looking through the scene camera (its view and projection matrices, as the region gives them) is
     rendered with the camera F12 renders, perspective and orthographic (whose rays start at the near plane)."""
@@ -139,7 +158,7 @@ def test_a_camera_move_keeps_the_bvh_and_the_light_paths(cornell, viewport, meth
           f"{seconds_moved:.3f} s ({moved.rays} rays): {seconds_cold / seconds_moved:.2f}x")
     assert cold.info["light_paths"] > 0 and moved.info["light_paths"] == 0
     assert moved.info.get("reused", False) == (method == "ir")
-    assert view.renderer._states["preview"].bvh_builds == 1
+    assert cold.bvh_builds == moved.bvh_builds == 1
     assert moved.rays < cold.rays
     assert not np.array_equal(moved.combined, cold.combined)  # the new view, not the old image
 
@@ -154,7 +173,6 @@ def test_what_a_change_keeps(cornell, viewport):
     view.update(depsgraph, camera)
     cold = _next_frame(view, step="preview")
     view.renderer.stop()
-    state = view.renderer._states["preview"]
 
     scene.objects["ShortBox"].select_set(True)
     depsgraph.update()
@@ -165,14 +183,14 @@ def test_what_a_change_keeps(cornell, viewport):
     assert view.update(depsgraph, camera)
     recoloured = _next_frame(view, cold, step="preview")
     view.renderer.stop()
-    assert state.bvh_builds == 1 and recoloured.info["light_paths"] == recoloured.info["paths_kept"] > 0
+    assert recoloured.bvh_builds == 1 and recoloured.info["light_paths"] == recoloured.info["paths_kept"] > 0
 
     scene.objects["TallBox"].location.x += 0.05
     depsgraph.update()
     assert view.update(depsgraph, camera)
     moved = _next_frame(view, recoloured, step="preview")
     view.renderer.stop()
-    assert state.bvh_builds == 2
+    assert moved.bvh_builds == 2
     assert 0 < moved.info["light_paths"] < moved.info["paths_kept"]
 
 
@@ -237,6 +255,26 @@ def test_bad_input_keeps_the_last_image_and_names_the_problem(cornell, viewport)
     view.renderer.stop()
     assert "no lights" in view.status
     assert dark.combined[..., :3].max() < frame.combined[..., :3].max()
+
+
+def test_time_limit_and_denoise(cornell, viewport):
+    """The time limit ends the refinement after the pass that reaches it; Denoise (OpenImageDenoise) smooths the
+    averaged image of the same passes."""
+    scene, depsgraph, camera = cornell("ir", samples=8)
+    scene.render.resolution_percentage = 25
+    scene.vpl_gi.viewport_time_limit = 0.01
+    depsgraph.update()
+    small = _module("operators.extract").camera_of(scene, depsgraph)
+    roughness = []
+    for denoised in (False, True):
+        scene.vpl_gi.viewport_denoise = denoised
+        depsgraph.update()
+        view = viewport()
+        view.update(depsgraph, small)
+        assert view.renderer.wait(120) and view.status.startswith("done: 1 passes")
+        rgb = view.frame.combined[..., :3]
+        roughness.append(float(np.abs(np.diff(rgb, axis=0)).mean() + np.abs(np.diff(rgb, axis=1)).mean()))
+    assert roughness[1] < 0.8 * roughness[0]
 
 
 def test_viewport_settings_leave_bakes_alone(cornell):

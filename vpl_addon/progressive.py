@@ -147,6 +147,7 @@ class Frame:
     seconds: float  # since the change that started the work
     info: dict = field(default_factory=dict)  # the last pass's method info (light paths traced, reused...)
     rays: int = 0  # rays the last pass traced
+    bvh_builds: int = 0  # BVHs the light state of the last pass has built since it was made
     number: int = 0  # the renderer's count of images made, so a viewer uploads each image once
 
     @property
@@ -276,7 +277,7 @@ class ProgressiveRenderer:
                     return
                 self._made += 1
                 self.frame = Frame(images, step.name, count, time.perf_counter() - started, result.info,
-                                   result.rays, self._made)
+                                   result.rays, state.bvh_builds, self._made)
                 self.warnings = result.warnings
             if self.on_image is not None:
                 self.on_image()
