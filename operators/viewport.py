@@ -63,8 +63,8 @@ class Viewport:
     """The progressive render of one 3D view: ``update`` on depsgraph changes, ``look`` on redraws, ``frame`` and
     ``status`` to draw. ``passes``: what each image holds besides Combined (tests ask for Diffuse Indirect)."""
 
-    def __init__(self, on_image=None, passes: tuple[str, ...] = (P.COMBINED,)):
-        self.renderer = ProgressiveRenderer(on_image)
+    def __init__(self, passes: tuple[str, ...] = (P.COMBINED,)):
+        self.renderer = ProgressiveRenderer()
         self.passes = passes
         self.scene = None  # the scene last rendered (extracted), its settings and viewport settings
         self._settings = None

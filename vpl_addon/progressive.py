@@ -157,15 +157,14 @@ class Frame:
 
 class ProgressiveRenderer:
     """Renders scenes progressively on background threads (see the module's docstring). The latest image is
-    ``frame``; ``status`` is one line on what it is doing or what went wrong; ``on_image()``, if given, is called
-    from the worker after each new image (to ask for a redraw).
+    ``frame`` (a viewer polls it: ``Frame.number`` tells a new one); ``status`` is one line on what it is doing or
+    what went wrong.
 
     Each change is a job with its own thread and stop flag. ``start`` sets the running job's flag and starts the new
     one at once: the old job ends at its next ray batch or block, and until it has, it shows nothing more and keeps
     the light state it holds, which the new job waits for (``KeptLights.hold``) only when it needs that state."""
 
-    def __init__(self, on_image=None):
-        self.on_image = on_image
+    def __init__(self):
         self.frame: Frame | None = None
         self.status = ""
         self.warnings: list[str] = []
@@ -279,8 +278,6 @@ class ProgressiveRenderer:
                 self.frame = Frame(images, step.name, count, time.perf_counter() - started, result.info,
                                    result.rays, state.bvh_builds, self._made)
                 self.warnings = result.warnings
-            if self.on_image is not None:
-                self.on_image()
         self._say(stop, f"done: {count} passes in {time.perf_counter() - started:.1f} s")
 
     @staticmethod
