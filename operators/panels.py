@@ -68,7 +68,7 @@ class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):
     bl_label = "Viewport"
     bl_context = "render"
 
-    SETTINGS = ("viewport_samples", "viewport_time_limit", "viewport_pixel_size", "viewport_denoise")
+    SETTINGS = ("viewport_samples", "viewport_time_limit", "viewport_start_resolution", "viewport_denoise")
 
     def draw(self, context):
         self.layout.use_property_split = True

@@ -145,11 +145,10 @@ class VPLGISettings(bpy.types.PropertyGroup):
     viewport_time_limit: bpy.props.FloatProperty(
         name="Time Limit", default=_VIEW.time_limit, min=0.0, soft_max=60.0, subtype="TIME_ABSOLUTE",
         description="Rendered shading: stop refining this many seconds after a change (0: the samples decide)")
-    viewport_pixel_size: bpy.props.EnumProperty(
-        name="Start Pixel Size", default=str(_VIEW.pixel_size),
-        items=[(str(n), f"{n}x", f"The first image after a change has pixels {n} screen pixels wide")
-               for n in (1, 2, 4, 8)],
-        description="Rendered shading: the first image after a change is this coarse, then full resolution follows")
+    viewport_start_resolution: bpy.props.IntProperty(
+        name="Start Resolution", default=_VIEW.start_resolution, min=8, soft_max=1024, subtype="PIXEL",
+        description="Rendered shading: the first image after a change has this many pixels on its longer side, then "
+                    "finer images follow up to the view's resolution (as Cycles' viewport Start Resolution)")
     viewport_denoise: bpy.props.BoolProperty(
         name="Denoise", default=_VIEW.denoise,
         description="Rendered shading: denoise the image with OpenImageDenoise after each pass")
@@ -178,7 +177,7 @@ class VPLGISettings(bpy.types.PropertyGroup):
 
     def viewport_settings(self) -> ViewportSettings:
         """The progressive render of the 3D view's Rendered shading (``vpl_addon.progressive``)."""
-        return ViewportSettings(pixel_size=int(self.viewport_pixel_size), samples=self.viewport_samples,
+        return ViewportSettings(start_resolution=self.viewport_start_resolution, samples=self.viewport_samples,
                                 time_limit=self.viewport_time_limit, denoise=self.viewport_denoise)
 
 

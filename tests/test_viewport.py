@@ -74,7 +74,7 @@ def test_the_plan_refines_resolution_samples_and_light_budget():
     from vpl_addon.progressive import ViewportSettings, plan
     from vpl_addon.render import RenderSettings
     settings = RenderSettings(samples=64, light_samples=8, seed=7)
-    steps = plan(settings, ViewportSettings(pixel_size=4, samples=3), ("Combined", INDIRECT))
+    steps = plan(settings, ViewportSettings(start_resolution=64, samples=3), ("Combined", INDIRECT), (256, 200))
     assert [(s.name, s.pixel_size, s.lights) for s in steps] == [
         ("preview", 4, "preview"), ("refine", 1, "first"), ("refine", 1, "full"), ("refine", 1, "full")]
     assert [s.settings.seed for s in steps[1:]] == [7, 8, 9]
@@ -82,8 +82,12 @@ def test_the_plan_refines_resolution_samples_and_light_budget():
     vpls = [s.settings.placement.vpls for s in steps]
     photons = [s.settings.placement.vbnl.photons for s in steps]
     assert vpls == [256, 1024, 4096, 4096] and photons == [16384, 65536, 262144, 262144]
-    tiny = plan(replace(settings, placement=replace(settings.placement, vpls=16)), ViewportSettings(), ())
-    assert {s.settings.placement.vpls for s in tiny} == {16}
+    tiny = plan(replace(settings, placement=replace(settings.placement, vpls=16)), ViewportSettings(), (), (64, 64))
+    assert {s.settings.placement.vpls for s in tiny} == {16} and tiny[0].pixel_size == 1
+    wide = plan(settings, ViewportSettings(samples=1), (), (1920, 1080))  # a large view: finer images on the way
+    assert [(s.name, s.pixel_size, s.lights) for s in wide] == [
+        ("preview", 30, "preview"), ("coarse", 15, "first"), ("coarse", 8, "first"), ("coarse", 4, "first"),
+        ("refine", 1, "first")]
     assert steps[0].settings.passes == ("Combined", INDIRECT)
 
 
@@ -283,9 +287,9 @@ def test_viewport_settings_leave_bakes_alone(cornell):
     scene, _, _ = cornell()
     before = settings_key(scene)
     scene.vpl_gi.viewport_samples = 3
-    scene.vpl_gi.viewport_pixel_size = "8"
+    scene.vpl_gi.viewport_start_resolution = 32
     assert settings_key(scene) == before
-    assert scene.vpl_gi.viewport_settings().pixel_size == 8
+    assert scene.vpl_gi.viewport_settings().start_resolution == 32
 
 
 DRAW = """

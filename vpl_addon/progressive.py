@@ -4,10 +4,13 @@ on a background thread that any new change stops.
 A change (``ProgressiveRenderer.start``: new scene data, a new view, new settings) stops the running work and starts
 the ``plan``:
 
-1. *preview*: the frame at ``1 / pixel_size`` of its resolution (Cycles' viewport Pixel Size), one camera sample,
-   one light sample, and a light budget ``BUDGETS["preview"]`` times smaller than the render's (VPLs, VBNL's
-   photons; one VBNL gather sample), so that the first image costs a small fraction of a full pass;
-2. *refine*: full-resolution passes of one camera sample and one light sample each (at most four VBNL gather
+1. *preview*: the frame with ``start_resolution`` pixels on its longer side (as Cycles' viewport Start Resolution:
+   a quarter of the Cornell box's 256), one camera sample, one light sample, and a light budget
+   ``BUDGETS["preview"]`` times smaller than the render's (VPLs, VBNL's photons; one VBNL gather sample), so that
+   the first image costs a small fraction of a full pass;
+2. *coarse*: in a view larger than 4 ``start_resolution``, images twice as fine each until a quarter of the
+   resolution, with the first pass's light budget (below), shown as they come;
+3. *refine*: full-resolution passes of one camera sample and one light sample each (at most four VBNL gather
    samples), each with its own pixel seed, averaged into the image (``samples`` passes at most, or until
    ``time_limit``): more VPLs as they go, the first pass with a quarter of the render's light budget, the others
    with all of it.
@@ -38,7 +41,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .core import passes as P
-from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
+from .core.denoise import DenoiserMissing, denoise
 from .render import Cancelled, RenderSettings, render
 from .sequence.state import SequenceState
 
@@ -51,28 +54,29 @@ BUDGETS = {"preview": 16, "first": 4, "full": 1}
 
 @dataclass
 class ViewportSettings:
-    pixel_size: int = 4  # the first image's pixels are this many of the frame's wide and high
+    start_resolution: int = 64  # pixels on the longer side of the first image
     samples: int = 16  # full-resolution passes averaged (a camera and a light sample per pixel each)
     time_limit: float = 0.0  # seconds after a change when refinement stops (0: ``samples`` alone decides)
     denoise: bool = False  # OpenImageDenoise on the averaged image after each pass
 
     def __post_init__(self):
-        if self.pixel_size < 1 or self.samples < 1 or self.time_limit < 0:
+        if self.start_resolution < 1 or self.samples < 1 or self.time_limit < 0:
             raise ValueError(f"viewport settings out of range: {self}")
 
 
 @dataclass
 class Step:
     """One pass of the plan: its pixel size, its render settings and the name of the light state it keeps."""
-    name: str  # "preview" or "refine"
-    pixel_size: int
+    name: str  # "preview", "coarse" or "refine"
+    pixel_size: int  # screen pixels per pixel rendered, along each side
     settings: RenderSettings
     lights: str  # a key of ``BUDGETS``: the light state (``KeptLights``) that keeps its BVH and lights
 
 
-def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str, ...]) -> list[Step]:
-    """The passes a change starts, from the render's ``settings`` (method, light budget, seed, film...) and the
-    viewport's; each writes ``passes`` (Combined always)."""
+def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str, ...], size: tuple[int, int]) \
+        -> list[Step]:
+    """The passes a change starts in a view of ``size`` (width, height) pixels, from the render's ``settings``
+    (method, light budget, seed, film...) and the viewport's; each writes ``passes`` (Combined always)."""
     if viewport.denoise:
         passes = tuple(passes) + (P.DENOISING_ALBEDO, P.DENOISING_NORMAL)
     one = replace(settings, samples=1, light_samples=min(settings.light_samples, 1), indirect_samples=1,
@@ -86,8 +90,12 @@ def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str
         return replace(settings.placement, vpls=min(vpls, max(64, vpls // share)),
                        vbnl=replace(vbnl, photons=min(photons, max(4096, photons // share)), sampling=replace(
                            vbnl.sampling, samples=min(vbnl.sampling.samples, 1 if name == "preview" else 4))))
-    steps = [Step("preview", viewport.pixel_size, replace(one, placement=budget("preview"),
-                                                          block_pixels=PREVIEW_BLOCK_PIXELS), "preview")]
+    coarse = replace(one, block_pixels=PREVIEW_BLOCK_PIXELS)
+    pixel = -(-max(size) // viewport.start_resolution)
+    steps = [Step("preview", pixel, replace(coarse, placement=budget("preview")), "preview")]
+    while pixel > 4:
+        pixel = -(-pixel // 2)
+        steps.append(Step("coarse", pixel, replace(coarse, placement=budget("first")), "first"))
     for k in range(viewport.samples):
         lights = "first" if k == 0 else "full"
         steps.append(Step("refine", 1, replace(one, placement=budget(lights), seed=settings.seed + k), lights))
@@ -185,8 +193,9 @@ class ProgressiveRenderer:
               passes: tuple[str, ...] = (P.COMBINED,)) -> None:
         """Stop the running job and render ``scene`` progressively."""
         started = time.perf_counter()
-        steps = plan(settings, viewport, passes)
-        key = repr([(s.settings.method, s.settings.placement, s.settings.threads) for s in steps[:3]])
+        steps = plan(settings, viewport, passes, (scene.camera.width, scene.camera.height))
+        key = repr(sorted({s.lights: (s.settings.method, s.settings.placement, s.settings.threads)
+                           for s in steps}.items()))
         if key != self._key:  # a new method or light budget: nothing kept is valid
             self.stop()
             self.close_states()
@@ -242,7 +251,7 @@ class ProgressiveRenderer:
             late = viewport.time_limit and time.perf_counter() - started >= viewport.time_limit
             if step.name == "refine" and count and late:
                 break
-            self._say(stop, f"{'first image' if step.name == 'preview' else f'pass {count + 1}'} of {len(steps) - 1}")
+            self._say(stop, f"pass {count + 1} of {viewport.samples}" if step.name == "refine" else "first images")
             state = self._states[step.lights]
             if not state.hold(stop):
                 return
@@ -273,11 +282,11 @@ class ProgressiveRenderer:
                     total[name] = total.get(name, 0.0) + image
                 images = {name: image / count for name, image in total.items()}
                 if viewport.denoise:
-                    images[P.COMBINED] = self._denoised(images, step.settings.threads, stop, result.warnings)
+                    images[P.COMBINED] = self._denoised(images, step.settings.threads, result.warnings)
             else:
                 images = result.passes
             with self._shown:
-                if stop.is_set() or images[P.COMBINED] is None:
+                if stop.is_set():
                     return
                 self._made += 1
                 self.frame = Frame(images, step.name, count, time.perf_counter() - started, result.info,
@@ -286,15 +295,14 @@ class ProgressiveRenderer:
         self._say(stop, f"done: {count} passes in {time.perf_counter() - started:.1f} s")
 
     @staticmethod
-    def _denoised(images, threads, stop: threading.Event, warnings: list[str]) -> np.ndarray | None:
-        """Combined of the averaged ``images`` denoised (None if ``stop`` is set meanwhile); as it is, with a
-        warning added to ``warnings``, without OIDN."""
+    def _denoised(images, threads, warnings: list[str]) -> np.ndarray:
+        """Combined of the averaged ``images`` denoised; as it is, with a warning added to ``warnings``, without
+        OIDN. OIDN's run is not stopped midway (its progress monitor is declared on pyoidn's interface once per
+        copy of ``core.denoise``, and the tests import two): a stop waits for it, tens of milliseconds at 256x256."""
         combined = images[P.COMBINED].copy()
         try:
             combined[..., :3] = denoise(combined[..., :3], images[P.DENOISING_ALBEDO], images[P.DENOISING_NORMAL],
-                                        threads, lambda done: not stop.is_set())
-        except DenoiseCancelled:
-            return None
+                                        threads)
         except DenoiserMissing as err:
             warnings.append(f"{err}: the viewport is not denoised")
         return combined
