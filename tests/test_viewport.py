@@ -261,6 +261,18 @@ def test_bad_input_keeps_the_last_image_and_names_the_problem(cornell, viewport)
     assert dark.combined[..., :3].max() < frame.combined[..., :3].max()
 
 
+def test_the_view_needs_no_scene_camera(cornell, viewport):
+    """The view is the camera: a scene without one (F12 refuses it) renders in the viewport."""
+    import bpy
+    scene, depsgraph, camera = cornell("ir")
+    bpy.data.objects.remove(scene.camera)
+    depsgraph.update()
+    view = viewport()
+    assert view.update(depsgraph, camera)
+    frame = _next_frame(view, step="preview")
+    assert frame.combined[..., :3].max() > 0 and "camera" not in view.status
+
+
 def test_time_limit_and_denoise(cornell, viewport):
     """The time limit ends the refinement after the pass that reaches it; Denoise (OpenImageDenoise) smooths the
     averaged image of the same passes."""
