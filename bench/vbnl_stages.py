@@ -24,8 +24,10 @@ sys.path.insert(0, str(ROOT))
 def load_scene(path):
     """The engine's Scene of a .blend, extracted through bpy (the extension loaded as ``vpl_gi``)."""
     from vpl_addon.__main__ import extension_package
-    extension_package()
+    package = extension_package()
     import bpy
+    if not hasattr(bpy.types.Scene, "vpl_gi"):  # the scene's settings (film, bounces) are read from the extension's
+        package.register()
     from vpl_gi.operators.extract import extract
     bpy.ops.wm.open_mainfile(filepath=str(path))
     scene, _ = extract(bpy.context.evaluated_depsgraph_get())

@@ -62,9 +62,11 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: 
 
 @functools.cache
 def _progress_setter():
-    """pyoidn's cffi interface and OIDN's ``oidnSetFilterProgressMonitorFunction`` on it (declared once)."""
+    """pyoidn's cffi interface and OIDN's ``oidnSetFilterProgressMonitorFunction`` on it (declared again without
+    complaint when this module is loaded twice, as the extension and as the engine package)."""
     from pyoidn import capi
-    capi.oidn_ffi.cdef("void oidnSetFilterProgressMonitorFunction(OIDNFilter, OIDNProgressMonitorFunction, void*);")
+    capi.oidn_ffi.cdef("void oidnSetFilterProgressMonitorFunction(OIDNFilter, OIDNProgressMonitorFunction, void*);",
+                       override=True)
     return capi.oidn_ffi, capi.oidn_Capi.oidnSetFilterProgressMonitorFunction
 
 

@@ -41,9 +41,13 @@ class AreaLight(Light):
     def bounds(self):
         return self.center, 0.5 * float(np.hypot(np.linalg.norm(self.axis_u), np.linalg.norm(self.axis_v)))
 
-    def importance(self, p, scene_radius):
-        """As for any light, but nothing behind the emitting side (one-sided)."""
-        return np.where(dot(p - self.center, self.normal) > 0.0, super().importance(p, scene_radius), 0.0)
+    def orientation(self):
+        """One-sided along its normal, within half the spread of it (at most 90 degrees)."""
+        return self.normal, 0.0, min(0.5 * float(np.clip(self.spread, 0.0, np.pi)), 0.5 * np.pi)
+
+    def intensity_estimate(self):
+        """Along the normal: radiance x area x the spread's profile there, P / pi for a Lambertian emitter."""
+        return self.flux_estimate(1.0) / np.pi * float(self.spread_profile(np.ones(1))[0])
 
     def spread_profile(self, cos_phi: np.ndarray) -> np.ndarray:
         """Cycles' spread: max(0, tan h - tan phi) / (tan h sin^2 h - h + sin h cos h), h = spread / 2, which

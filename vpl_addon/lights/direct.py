@@ -1,9 +1,9 @@
 """Direct lighting by next-event estimation: Cycles' ``Diffuse Direct`` and ``Glossy Direct`` passes.
 
-For each shading point, ``samples`` light samples: a light chosen in proportion to its power (``LightSet``), a point
-or direction on it, one shadow ray. The result is the outgoing radiance of a white Lambertian surface,
-(1/pi) * integral L_i cos(theta) d omega, which is how Cycles defines the pass (light reflected by the diffuse
-BSDF, divided by the diffuse colour).
+For each shading point, ``samples`` light samples: a light chosen by the light it can bring there (``LightSet``'s
+light tree), a point or direction on it, one shadow ray. The result is the outgoing radiance of a white Lambertian
+surface, (1/pi) * integral L_i cos(theta) d omega, which is how Cycles defines the pass (light reflected by the
+diffuse BSDF, divided by the diffuse colour).
 
 When the points are the samples of pixels (the G-buffer), the caller can hand in the light-sample numbers: those of
 all samples of a pixel then form one scrambled Sobol net (``sampling.stratified_2d``) dealt out in random order,
@@ -39,7 +39,7 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     direct radiance a white Lambertian surface reflects and, if ``glossy`` is given, the radiance its metallic lobe
     reflects toward the viewer (zero otherwise).
 
-    Each light sample is one sample of a local light (chosen by power) plus, if the world emits, one
+    Each light sample is one sample of a local light (chosen by the light tree) plus, if the world emits, one
     cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples) or None: the uniform
     numbers for the local and the world samples, instead of independent ones. ``through``: a (K,3) array that
     takes the diffuse part of the light whose shadow ray went through glass (``materials.cutouts``), which Cycles
@@ -123,17 +123,17 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
     rows, w, f_cos_pdf, p_lobe = rows[keep], w[keep], f_cos_pdf[keep], p_lobe[keep]
     if len(rows) == 0:
         return
-    chosen = lights.selection(p[rows])
-    found = [(chosen[:, i], light) for i, light in enumerate(lights.local)]
+    found = list(enumerate(lights.local))
     if lights.world is not None:
-        found.append((1.0, lights.world))
-    for probability, light in found:
+        found.append((None, lights.world))
+    for index, light in found:
         answer = light.mis(p[rows], ns[rows], w)
         if answer is None:
             continue
         dist, radiance, pdf = answer
-        pdf = probability * pdf
         hit = np.nonzero((pdf > 0.0) & (radiance.max(axis=1) > 0.0))[0]
+        if index is not None:  # times the probability of choosing the light there
+            pdf[hit] *= lights.selection(p[rows[hit]], ns[rows[hit]], np.full(len(hit), index))
         hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]
         light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]
         shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)

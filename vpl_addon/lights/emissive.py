@@ -42,6 +42,10 @@ class EmissiveTriangles(Light):
     def flux_estimate(self, scene_radius):
         return 2.0 * np.pi * self.total  # both sides
 
+    def intensity_estimate(self):
+        """The intensity of every triangle facing the same way."""
+        return self.total
+
     def bounds(self):
         pts = self.triangles.reshape(-1, 3)
         lo, hi = pts.min(axis=0), pts.max(axis=0)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.sampling import concentric_disk, dot, orthonormal_basis
+from ..core.sampling import concentric_disk, orthonormal_basis
 
 
 def disc_facing(rng, dirs, center, radius):
@@ -18,6 +18,7 @@ class Light:
     """Base of the light types: a name, total power for light selection and incident sampling."""
 
     name: str
+    distant = False  # no position (the sun): the light tree keeps it beside its nodes
 
     @property
     def is_active(self) -> bool:
@@ -25,8 +26,8 @@ class Light:
         direction, is inert rather than a source of NaN."""
         flux = self.flux_estimate(1.0)
         numbers = [v for v in vars(self).values() if isinstance(v, (float, np.ndarray))]
-        directions = [getattr(self, k) for k in ("direction", "normal") if isinstance(getattr(self, k, None),
-                                                                                  np.ndarray)]
+        directions = [getattr(self, k) for k in ("direction", "normal")
+                      if isinstance(getattr(self, k, None), np.ndarray)]
         return bool(np.isfinite(flux) and flux > 0.0 and all(np.isfinite(v).all() for v in numbers)
                     and all(np.linalg.norm(d) > 0.0 for d in directions))
 
@@ -38,12 +39,16 @@ class Light:
         """Centre and radius of a sphere around the emitter (local lights only)."""
         raise NotImplementedError
 
-    def importance(self, p: np.ndarray, scene_radius: float) -> np.ndarray:
-        """(N,) rough irradiance the light brings to points p, ignoring shadows and orientation: power over
-        4 pi max(d^2, r^2). Only used to choose which light to sample at each point."""
-        center, r = self.bounds()
-        d2 = dot(p - center, p - center)
-        return np.full(len(p), self.flux_estimate(scene_radius)) / (4.0 * np.pi * np.maximum(d2, r * r + 1e-30))
+    def orientation(self) -> tuple[np.ndarray, float, float]:
+        """The directions the light emits in, as an orientation cone (Conty Estevez and Kulla 2018, sec. 4.1):
+        (axis, theta_o, theta_e), every point of the light emitting within theta_e of a normal that lies within
+        theta_o of the axis. Here every direction: theta_o = pi (local lights only, ``light_tree``)."""
+        return np.array([0.0, 0.0, 1.0]), np.pi, 0.5 * np.pi
+
+    def intensity_estimate(self) -> float:
+        """Largest radiant intensity [W/sr] (luminance-weighted) toward any direction, the power a light tree's
+        importance divides by d^2: P / (4 pi) here, an isotropic emitter's."""
+        return self.flux_estimate(1.0) / (4.0 * np.pi)
 
     def sample_incident(self, p, n, u1, u2, owner=None):
         """Light samples toward shading points: ``owner`` (N,) gives the point of ``p`` (P,3) each sample (u1[i],

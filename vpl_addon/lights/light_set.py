@@ -7,15 +7,16 @@ import numpy as np
 from ..core.sampling import sample_cdf
 from .emissive import EmissiveTriangles
 from .environment import EnvironmentLight
+from .light_tree import LightTree
 from .world import WorldLight
 
 
 class LightSet:
     """Every emitter of a scene. Light paths start from all of them, chosen in proportion to estimated power.
-    Next-event estimation picks among the *local* ones (all but the world) by their importance at the shading
-    point (``selection``), while the world, which a
-    cosine-weighted ray samples as well as anything can, gets its own sample at every light sample (the way
-    Cycles' BSDF sample finds the sky), so a bright sun does not starve the sky of samples."""
+    Next-event estimation picks among the *local* ones (all but the world) by the light each can bring to the
+    shading point (a light tree, ``light_tree``), while the world, which a cosine-weighted ray samples as well as
+    anything can, gets its own sample at every light sample (the way Cycles' BSDF sample finds the sky), so a
+    bright sun does not starve the sky of samples."""
 
     def __init__(self, scene=None, lights=None, center=np.zeros(3), radius=1.0):
         if scene is not None:
@@ -31,11 +32,12 @@ class LightSet:
             elif scene.world.max() > 0.0:  # a constant world needs no importance map
                 lights.append(WorldLight(scene.world))
         self.center, self.radius = center, radius
-        flux = np.array([max(l.flux_estimate(radius), 0.0) for l in lights], np.float64)
-        self.lights = [l for l, f in zip(lights, flux) if f > 0.0]
+        flux = np.array([max(light.flux_estimate(radius), 0.0) for light in lights], np.float64)
+        self.lights = [light for light, f in zip(lights, flux) if f > 0.0]
         self.prob = _normalized(flux[flux > 0.0])
-        self.world = next((l for l in self.lights if isinstance(l, (WorldLight, EnvironmentLight))), None)
-        self.local = [l for l in self.lights if l is not self.world]
+        self.world = next((light for light in self.lights if isinstance(light, (WorldLight, EnvironmentLight))), None)
+        self.local = [light for light in self.lights if light is not self.world]
+        self.tree = LightTree(self.local) if len(self.local) > 1 else None
 
     def __len__(self):
         return len(self.lights)
@@ -63,23 +65,24 @@ class LightSet:
     def sample_incident(self, p, n, u_select, u1, u2, owner=None):
         """One sample of a local light per sample: (wi, dist, L_e / pdf including 1/p_select, normal at the light
         point or None, the index of each sample's light among the local ones). ``owner`` as in
-        ``Light.sample_incident`` (the points p, n, the samples u). The normal is zero where the light point is not
-        on scene geometry (analytic lights), None if no light is on geometry."""
+        ``Light.sample_incident`` (the points p, n, the samples u); the light is chosen by the light tree
+        (``selection``) from ``u_select``. The normal is zero where the light point is not on scene geometry
+        (analytic lights), None if no light is on geometry."""
         owner = np.arange(len(p)) if owner is None else owner
         if len(self.local) == 1:
             out = self.local[0].sample_incident(p, n, u1, u2, owner)
             return out[0], out[1], out[2], out[3] if len(out) == 4 else None, np.zeros(len(owner), np.int64)
         count = len(owner)
         wi, dist, weight, target_n = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3)), None
-        prob = self.selection(p)
-        choice = np.minimum((np.cumsum(prob[owner], axis=1) < u_select[:, None]).sum(axis=1), len(self.local) - 1)
-        for index, light in enumerate(self.local):
-            m = np.nonzero(choice == index)[0]
-            if len(m) == 0:
-                continue
+        choice, prob = self.tree.sample(p, n, owner, u_select)
+        order = np.argsort(choice, kind="stable")  # the samples light by light, only the lights chosen
+        counts = np.bincount(choice, minlength=len(self.local))
+        ends = np.cumsum(counts)
+        for index in np.nonzero(counts)[0]:
+            m = order[ends[index] - counts[index]:ends[index]]
             points, at = np.unique(owner[m], return_inverse=True)  # per-point work only where the light is chosen
-            out = light.sample_incident(p[points], n[points], u1[m], u2[m], at)
-            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / prob[owner[m], index][:, None]
+            out = self.local[index].sample_incident(p[points], n[points], u1[m], u2[m], at)
+            wi[m], dist[m], weight[m] = out[0], out[1], out[2] / prob[m, None]
             if len(out) == 4:
                 target_n = np.zeros((count, 3)) if target_n is None else target_n
                 target_n[m] = out[3]
@@ -90,24 +93,19 @@ class LightSet:
         the light ``which`` (index among the local lights) chosen: its selection probability times its own pdf;
         NaN where that light cannot say (``Light.mis`` None)."""
         out = np.full(len(p), np.nan)
-        prob = self.selection(p)
         for index, light in enumerate(self.local):
             m = np.nonzero(which == index)[0]
             found = light.mis(p[m], n[m], w[m]) if len(m) else None
             if found is not None:
-                out[m] = prob[m, index] * found[2]
+                out[m] = self.selection(p[m], n[m], which[m]) * found[2]
         return out
 
-    def selection(self, p: np.ndarray) -> np.ndarray:
-        """(N, L) probabilities of choosing each local light at points p: in proportion to its importance there
-        (a light tree's idea in its simplest form: near a small lamp, the lamp), with 10 % spread uniformly so no
-        light that could matter is starved."""
-        if len(self.local) <= 1:  # no choice to make
-            return np.ones((len(p), len(self.local)))
-        imp = np.stack([light.importance(p, self.radius) for light in self.local], axis=1)
-        total = imp.sum(axis=1, keepdims=True)
-        share = np.where(total > 0, imp / np.where(total > 0, total, 1.0), 1.0 / len(self.local))
-        return 0.9 * share + 0.1 / len(self.local)
+    def selection(self, p: np.ndarray, n: np.ndarray, which: np.ndarray) -> np.ndarray:
+        """(K,) the probability that ``sample_incident`` chooses local light ``which`` (K,) at points p with
+        normals n: by the light tree (``light_tree``), 1 where there is no choice to make."""
+        if len(self.local) <= 1:
+            return np.ones(len(p))
+        return self.tree.probability(p, n, which)
 
 
 def _normalized(weights: np.ndarray) -> np.ndarray:

@@ -98,6 +98,12 @@ class SpotLight(PointLight):
         super().__post_init__()
         self.direction = normalize(np.asarray(self.direction, np.float64))
 
+    def orientation(self):
+        """Within half the spot size of its direction; a scaled spot (elliptic cone) everywhere."""
+        if self.inverse_basis is not None:
+            return super().orientation()
+        return self.direction, min(0.5 * float(self.spot_size), np.pi), 0.0
+
     def attenuation(self, out_dirs):
         """Cycles' cone: smoothstep((cos a - cos(size/2)) / ((1 - cos(size/2)) blend)), a = angle to the axis,
         measured in the light's local frame (so a scaled spot has an elliptic cone)."""

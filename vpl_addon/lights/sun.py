@@ -7,8 +7,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.color import LUMINANCE
-from ..core.sampling import normalize, uniform_cone
+from ..core.sampling import dot, normalize, uniform_cone
 from .light import Light, disc_facing
+from .light_tree import horizon_bound
 
 
 @dataclass
@@ -17,6 +18,7 @@ class SunLight(Light):
     direction: np.ndarray  # direction the light travels (the sun object's -Z)
     strength: np.ndarray  # RGB W/m^2
     angle: float = 0.0  # angular diameter of the sun disc
+    distant = True
 
     def __post_init__(self):
         self.direction = normalize(np.asarray(self.direction, np.float64))
@@ -26,8 +28,12 @@ class SunLight(Light):
     def flux_estimate(self, scene_radius):
         return float(self.strength @ LUMINANCE) * np.pi * scene_radius ** 2
 
-    def importance(self, p, scene_radius):
-        return np.full(len(p), float(self.strength @ LUMINANCE))
+    def irradiance_bound(self, n: np.ndarray) -> np.ndarray:
+        """(N,) the most irradiance [W/m^2] (luminance) the sun can bring to surfaces of normals n: its strength
+        times the largest cosine between n and a direction of its disc (the light tree's importance of a
+        distant light)."""
+        half = 0.5 * self.angle
+        return float(self.strength @ LUMINANCE) * horizon_bound(-dot(n, self.direction), np.cos(half), np.sin(half))
 
     def _sample_incident(self, p, n, u1, u2):
         count = len(p)
