@@ -28,7 +28,8 @@ Stopping: the tracer a step uses (``Interruptible``) raises ``Cancelled`` at its
 and ``render``'s ``progress`` returns False after its next block of pixels, so a stop reaches every stage that
 traces rays (placing lights, the G-buffer, shadow rays, the gather) within one ray batch, inside a block of pixels
 as well as between blocks. Stretches without rays run to their end (VBNL's sample elimination and photon splitting
-of a large budget, the filter at the end of a pass: up to a few hundred milliseconds on 2 busy cores); the stopped
+of a large budget, the filter at the end of a pass: up to a few hundred milliseconds on 2 busy cores; OIDN's run
+with ``denoise`` stops through its progress monitor); the stopped
 job shows nothing more, and the new job waits for it only if it needs the light state it holds. A state whose
 lights were being placed when the work stopped forgets its lights (not its BVH): they may be half made.
 """
@@ -41,7 +42,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .core import passes as P
-from .core.denoise import DenoiserMissing, denoise
+from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
 from .render import Cancelled, RenderSettings, render
 from .sequence.state import SequenceState
 
@@ -282,11 +283,11 @@ class ProgressiveRenderer:
                     total[name] = total.get(name, 0.0) + image
                 images = {name: image / count for name, image in total.items()}
                 if viewport.denoise:
-                    images[P.COMBINED] = self._denoised(images, step.settings.threads, result.warnings)
+                    images[P.COMBINED] = self._denoised(images, step.settings.threads, stop, result.warnings)
             else:
                 images = result.passes
             with self._shown:
-                if stop.is_set():
+                if stop.is_set() or images[P.COMBINED] is None:
                     return
                 self._made += 1
                 self.frame = Frame(images, step.name, count, time.perf_counter() - started, result.info,
@@ -295,14 +296,15 @@ class ProgressiveRenderer:
         self._say(stop, f"done: {count} passes in {time.perf_counter() - started:.1f} s")
 
     @staticmethod
-    def _denoised(images, threads, warnings: list[str]) -> np.ndarray:
-        """Combined of the averaged ``images`` denoised; as it is, with a warning added to ``warnings``, without
-        OIDN. OIDN's run is not stopped midway (its progress monitor is declared on pyoidn's interface once per
-        copy of ``core.denoise``, and the tests import two): a stop waits for it, tens of milliseconds at 256x256."""
+    def _denoised(images, threads, stop: threading.Event, warnings: list[str]) -> np.ndarray | None:
+        """Combined of the averaged ``images`` denoised (None if ``stop`` is set meanwhile: OIDN's run stops); as it
+        is, with a warning added to ``warnings``, without OIDN."""
         combined = images[P.COMBINED].copy()
         try:
             combined[..., :3] = denoise(combined[..., :3], images[P.DENOISING_ALBEDO], images[P.DENOISING_NORMAL],
-                                        threads)
+                                        threads, lambda done: not stop.is_set())
+        except DenoiseCancelled:
+            return None
         except DenoiserMissing as err:
             warnings.append(f"{err}: the viewport is not denoised")
         return combined
