@@ -15,14 +15,15 @@ the ``plan``:
    ``time_limit``): more VPLs as they go, the first pass with a quarter of the render's light budget, the others
    with all of it.
 
-What a change does not touch is kept, by ``sequence.state.SequenceState`` (the machinery that bakes animations): each
-light budget keeps one state (``KeptLights``: its BVH, its lights and light paths), which sees the scenes it renders
-as the frames of a sequence; a state is used by one job at a time, so each keeps a BVH of its own (three builds
-after a geometry change, each when its step first runs). A camera move
-keeps the BVH and, for the methods whose lights ignore the camera (``ir``'s kept light paths, ``bidir``'s and
-``vbnl``'s kept light paths / photons, ``smc``'s VPLs), traces no light path; ``vbnl``'s camera-driven lights are
-placed again. A material change keeps the BVH (light paths are traced again). A moved object rebuilds the BVH and
-re-traces only the light paths that cross its old or new box (Moreau et al.). Changed settings start afresh.
+What a change does not touch is kept, by ``sequence.state.SequenceState`` (the machinery that bakes animations):
+each light budget keeps one state (``KeptLights``: its BVH, its lights and light paths), which sees the scenes it
+renders as the frames of a sequence; a state is used by one job at a time, so each keeps a BVH of its own (three
+builds after a geometry change, each when its step first runs). A camera move keeps the BVH and, for the lights that
+ignore the camera (``ir``'s kept light paths, ``bidir``'s and ``vbnl``'s kept light paths / photons), traces no
+light path; ``vbnl``'s camera-driven lights and ``bidir``'s reverse VPLs are placed again, ``smc`` keeps its VPLs
+and moves at most its few per frame. A material change keeps the BVH (light paths are traced again). A moved object
+rebuilds the BVH and re-traces only the light paths that cross its old or new box (Moreau et al.). Changed settings
+start afresh.
 
 Stopping: the tracer a step uses (``Interruptible``) raises ``Cancelled`` at its next call once a stop is asked for,
 and ``render``'s ``progress`` returns False after its next block of pixels, so a stop reaches every stage that
