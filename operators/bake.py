@@ -8,10 +8,16 @@ started again over the same folder and settings skips the finished frames and co
 writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``, its pixels
 use ``seed`` in every frame as Cycles does without an animated seed; the EXR header carries no date or render time). A
 range that starts cold, with no saved state before it, warms the state up first (the methods' ``start``), so chunks of
-one range can be rendered on different machines.
+one range can be rendered on different machines. A chunk of a longer sequence (``first``, the sequence's first frame,
+before the chunk's) does not start cold: it takes the nearest state saved before it (another chunk's, when there is
+one) or a cold start at ``first``, and carries it through the frames in between by placing their lights without
+rendering their pixels (``place_only``), so it continues exactly the state an uninterrupted bake would have: the
+chunks of a farm write the same bytes as one bake, without a seam where a chunk starts.
 
 ``bake.json`` in the folder records the settings; a folder that holds a bake of other settings is refused unless
-``overwrite`` is given, so nothing the user had is replaced without asking. Finished, stopped or failed, a bake leaves
+``overwrite`` is given, so nothing the user had is replaced without asking. While a bake runs it claims its frames
+(``BakeClaim``): a second bake of any of them into the same folder is refused; the disjoint chunks of one farm job
+coexist. Finished, stopped or failed, a bake leaves
 the scene's output path and image format (``output.render_to``), stamps and current frame as the user had them.
 """
 from __future__ import annotations
@@ -20,6 +26,7 @@ import glob
 import json
 import os
 import re
+import socket
 import tempfile
 from dataclasses import dataclass, field
 from typing import Callable
@@ -29,10 +36,11 @@ import bpy
 from ..vpl_addon.sequence.state import SequenceState
 from . import engine
 from .frame_state import rendering, settings_key
-from .output import render_to
+from .output import _alive, render_to
 
 MANIFEST = "bake.json"
 STATE_DIR = ".bake-state"
+CLAIM_DIR = ".bake-claims"
 FRAME_NAME = "frame_{:04d}.exr"
 
 
@@ -72,30 +80,111 @@ def _write_atomic(path: str, data: bytes) -> None:
             os.unlink(tmp)
 
 
+class BakeClaim:
+    """A bake's claim on frames ``frames`` of a folder: ``.bake-claims/FIRST-LAST.json`` holding the owner's host and
+    pid. Claims that share a frame refuse each other, so two bakes never write the same frames at once; disjoint
+    claims (the chunks of a render farm's job) coexist. The claim is made first and the others are read after, so
+    two bakes that race can both be refused, never both admitted. A claim left by a process of this host that has
+    died is stale and removed; one from another host is removed by hand (the message says which file)."""
+
+    def __init__(self, out_dir: str, frames: range):
+        self.folder = os.path.join(out_dir, CLAIM_DIR)
+        self.frames = frames
+        self.path = os.path.join(self.folder, f"{frames.start}-{frames.stop - 1}.json")
+        self.held = False
+
+    def acquire(self) -> None:
+        os.makedirs(self.folder, exist_ok=True)
+        me = {"host": socket.gethostname(), "pid": os.getpid(), "frames": [self.frames.start, self.frames.stop - 1]}
+        while True:
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o644)
+                break
+            except FileExistsError:
+                self._refuse_unless_stale(self.path)  # removed when stale: try again
+        with os.fdopen(fd, "w") as f:
+            json.dump(me, f)
+        self.held = True
+        for other in glob.glob(os.path.join(glob.escape(self.folder), "*.json")):
+            m = re.fullmatch(r"(-?\d+)-(-?\d+)\.json", os.path.basename(other))
+            if other != self.path and m and int(m.group(1)) < self.frames.stop and int(m.group(2)) >= self.frames.start:
+                try:
+                    self._refuse_unless_stale(other)
+                except BakeError:
+                    self.release()
+                    raise
+
+    def _refuse_unless_stale(self, path: str) -> None:
+        try:
+            with open(path) as f:
+                owner = json.load(f)
+        except FileNotFoundError:
+            return
+        except (OSError, ValueError):
+            owner = {}  # being written by its owner this instant
+        if owner.get("host") == socket.gethostname() and isinstance(owner.get("pid"), int) and \
+                not _alive(owner["pid"]):
+            try:
+                os.unlink(path)
+            except FileNotFoundError:
+                pass
+            return
+        first, last = owner.get("frames", ["?", "?"])
+        raise BakeError(f"{os.path.dirname(self.folder)} is being baked (frames {first}:{last}) by process "
+                        f"{owner.get('pid', '?')} on {owner.get('host', '?')}; wait for it, or delete {path} if that "
+                        f"bake is gone")
+
+    def release(self) -> None:
+        if self.held:
+            self.held = False
+            try:
+                os.unlink(self.path)
+            except FileNotFoundError:
+                pass
+
+
 @dataclass
 class BakeReport:
     rendered: list[int] = field(default_factory=list)
     skipped: list[int] = field(default_factory=list)  # already finished by an earlier run
     resumed_from: int | None = None  # the frame whose saved state the bake continued from
+    replayed: list[int] = field(default_factory=list)  # frames whose lights were placed, not rendered (``first``)
     frames: list[dict] = field(default_factory=list)  # per rendered frame: light paths, rays, reused, seconds
     warnings: list[str] = field(default_factory=list)  # e.g. a saved state it could not read (it started cold)
 
 
 class Bake:
-    """Render ``frames`` of ``scene`` (its engine must be VPL GI) into ``out_dir``."""
+    """Render ``frames`` of ``scene`` (its engine must be VPL GI) into ``out_dir``; ``frames`` may be a chunk of a
+    sequence that starts at ``first``. ``claim`` False: the frames are claimed by the caller (a farm's client, whose
+    chunks these are), the bake does not claim them itself."""
 
-    def __init__(self, scene, out_dir: str, frames: range, overwrite: bool = False):
+    def __init__(self, scene, out_dir: str, frames: range, overwrite: bool = False, first: int | None = None,
+                 claim: bool = True):
         if len(frames) == 0:
             raise BakeError(f"the frame range {frames.start}:{frames.stop - 1} is empty")
+        self.first = frames.start if first is None else first
+        if self.first > frames.start:
+            raise BakeError(f"the sequence starts at frame {self.first}, after the chunk's first frame {frames.start}")
         self.scene, self.out_dir, self.frames = scene, os.path.abspath(out_dir), frames
         self.key = settings_key(scene)
         self.report = BakeReport()
-        self._check_folder(overwrite)
-
-    def _check_folder(self, overwrite: bool) -> None:
         if os.path.exists(self.out_dir) and not os.path.isdir(self.out_dir):
             raise BakeError(f"{self.out_dir} is a file; the bake needs a folder")
         os.makedirs(self.out_dir, exist_ok=True)
+        self.claim = BakeClaim(self.out_dir, frames)
+        if claim:
+            self.claim.acquire()
+        try:
+            self._check_folder(overwrite)
+        except BaseException:
+            self.claim.release()
+            raise
+
+    def release(self) -> None:
+        """Give up the claim on the frames (a bake's steps do when they end; this is for a bake never run)."""
+        self.claim.release()
+
+    def _check_folder(self, overwrite: bool) -> None:
         manifest = os.path.join(self.out_dir, MANIFEST)
         if os.path.exists(manifest):
             try:
@@ -144,34 +233,29 @@ class Bake:
         render_frame = render_frame or (lambda path: render_to(self.scene, path))
         report = self.report = BakeReport()
         scene = self.scene
-        saved = saved_state_frames(self.out_dir)
         state: SequenceState | None = None
+        after = None  # the frame whose state ``state`` is
         stamps = {name: getattr(scene.render, name) for name in ("use_stamp_date", "use_stamp_render_time")}
         original_frame = scene.frame_current
         try:
             for name in stamps:  # no wall-clock values in the EXR header: a resumed bake writes the same bytes
                 setattr(scene.render, name, False)
             for number, frame in enumerate(self.frames):
-                if os.path.exists(frame_path(self.out_dir, frame)) and any(g >= frame for g in saved):
+                if os.path.exists(frame_path(self.out_dir, frame)):  # complete (written atomically), of this bake
                     report.skipped.append(frame)
                     continue
                 if state is None:
-                    previous = _state_path(self.out_dir, frame - 1)
-                    if os.path.exists(previous):
-                        try:
-                            with open(previous, "rb") as f:
-                                state = SequenceState.loads(f.read())
-                            report.resumed_from = frame - 1
-                        except (OSError, ValueError) as err:
-                            report.warnings.append(f"{previous}: {err}; frame {frame} starts cold")
-                    if state is None:
-                        state = SequenceState(scene.vpl_gi.method)
+                    state, after = self._nearest_state(frame)
+                for earlier in range(after + 1, frame):  # frames another bake rendered: their lights, no pixels
+                    place_only(scene, state, earlier)
+                    report.replayed.append(earlier)
                 scene.frame_set(frame)
                 with rendering(state):
                     render_frame(frame_path(self.out_dir, frame))
                 _write_atomic(_state_path(self.out_dir, frame), state.dumps())
-                if os.path.exists(_state_path(self.out_dir, frame - 1)):
-                    os.unlink(_state_path(self.out_dir, frame - 1))
+                after = frame
+                if frame - 1 in self.frames and os.path.exists(_state_path(self.out_dir, frame - 1)):
+                    os.unlink(_state_path(self.out_dir, frame - 1))  # a chunk's last state stays for the next one
                 stats = dict(engine.LAST_STATS)
                 info = stats.get("info", {})
                 report.rendered.append(frame)
@@ -187,6 +271,52 @@ class Bake:
             for name, value in stamps.items():
                 setattr(scene.render, name, value)
             scene.frame_set(original_frame)
+            self.release()
+
+    def _nearest_state(self, frame: int) -> tuple[SequenceState, int]:
+        """(state, the frame it is after) to continue from before ``frame``: the latest state saved in the folder
+        from frame ``first - 1`` on, else a cold start before ``first``."""
+        for saved in reversed([g for g in saved_state_frames(self.out_dir) if self.first - 1 <= g < frame]):
+            path = _state_path(self.out_dir, saved)
+            try:
+                with open(path, "rb") as f:
+                    state = SequenceState.loads(f.read())
+            except FileNotFoundError:  # another chunk moved on from it this instant
+                continue
+            except (OSError, ValueError) as err:
+                self.report.warnings.append(f"{path}: {err}; frame {frame} starts cold" + (
+                    f" (its state placed again from frame {self.first})" if self.first < frame else ""))
+                continue
+            self.report.resumed_from = saved
+            return state, saved
+        return SequenceState(self.scene.vpl_gi.method), self.first - 1
+
+
+def place_only(scene, state: SequenceState, frame: int) -> None:
+    """Carry ``state`` through ``frame`` as rendering it would, without its pixels: the engine renders a corner of
+    2x2 pixels (a frame's lights do not depend on the pixels rendered, and the state keeps nothing of them) and
+    nothing is written. The scene's render border is the user's again after."""
+    r = scene.render
+    names = ("use_border", "use_crop_to_border", "border_min_x", "border_max_x", "border_min_y", "border_max_y")
+    kept = {name: getattr(r, name) for name in names}
+    size = [max(1, int(n * r.resolution_percentage / 100)) for n in (r.resolution_x, r.resolution_y)]
+    try:
+        r.use_border, r.use_crop_to_border = True, True
+        r.border_min_x, r.border_max_x = 0.0, min(1.0, 2.5 / size[0])
+        r.border_min_y, r.border_max_y = 0.0, min(1.0, 2.5 / size[1])
+        scene.frame_set(frame)
+        failure = None
+        with rendering(state):
+            try:
+                bpy.ops.render.render(scene=scene.name)
+            except RuntimeError as err:  # an engine error report arrives as "Error: <report>"
+                failure = err
+        _engine_error()
+        if failure is not None:
+            raise failure
+    finally:
+        for name, value in kept.items():
+            setattr(r, name, value)
 
 
 def _engine_error():
@@ -267,6 +397,7 @@ class VPLGI_OT_bake_sequence(bpy.types.Operator):
 
     def _finish(self, context):
         self._steps.close()
+        self._bake.release()  # steps that never ran hold it still
         for warning in self._bake.report.warnings:
             self.report({"WARNING"}, warning)
         wm = context.window_manager

@@ -96,10 +96,25 @@ def cmd_bake(args) -> int:
         raise UserError(f"no such file: {args.scene}")
     if os.path.isfile(args.output):
         raise UserError(f"{args.output} is a file; -o takes the folder the frames go to")
+    farm = args.scheduler is not None or args.workers is not None
+    if args.scheduler is not None and args.workers is not None:
+        raise UserError("--scheduler bakes on an existing Dask cluster, --workers on one it starts here: give one")
+    for flag in ("workers", "chunk_size"):
+        if getattr(args, flag) is not None and getattr(args, flag) < 1:
+            raise UserError(f"--{flag.replace('_', '-')} must be at least 1")
+    if args.chunk_size is not None and not farm:
+        raise UserError("--chunk-size splits the range over --workers or a --scheduler's workers; a farm manager "
+                        "runs each chunk as --frames A:B --sequence-start FIRST")
+    if args.sequence_start is not None and (farm or args.sequence_start > frames.start):
+        raise UserError(f"--sequence-start {args.sequence_start}: the frame a chunk's sequence starts at, at or "
+                        f"before its first frame {frames.start}, and not with --workers or --scheduler (they chunk "
+                        f"the range themselves)")
     scene = _prepare_scene(args)
     t0 = time.perf_counter()
+    if farm:
+        return _bake_on_cluster(args, scene, frames, t0)
     try:
-        bake = Bake(scene, args.output, frames, args.overwrite)
+        bake = Bake(scene, args.output, frames, args.overwrite, first=args.sequence_start)
     except BakeError as err:
         raise UserError(str(err)) from None
 
@@ -119,8 +134,68 @@ def cmd_bake(args) -> int:
         print(f"skipped {len(report.skipped)} finished frames"
               + (f", resumed from the state after frame {report.resumed_from}" if report.resumed_from is not None
                  else ""))
+    if report.replayed:
+        print(f"placed the lights of frames {report.replayed[0]}:{report.replayed[-1]} to continue the sequence "
+              f"from frame {bake.first}")
     print(f"baked {len(report.rendered)} frames to {os.path.abspath(args.output)} in "
           f"{time.perf_counter() - t0:.1f} s")
+    return 0
+
+
+def _bake_on_cluster(args, scene, frames, t0) -> int:
+    """``bake`` in chunks on Dask workers (``operators/farm.py``): an existing scheduler's, or N processes here."""
+    import importlib.util
+    from . import farm
+    from .bake import Bake, BakeError, frame_path
+    if importlib.util.find_spec("distributed") is None:
+        raise UserError("--workers and --scheduler need Dask: pip install 'dask[distributed]'")
+    client = cluster = None
+    bake = None
+    try:
+        if args.scheduler is not None:  # before anything is written: an unreachable scheduler leaves no trace
+            client = farm.connect(args.scheduler)
+        try:
+            bake = Bake(scene, args.output, frames, args.overwrite)
+        except BakeError as err:
+            raise UserError(str(err)) from None
+        done = [f for f in frames if os.path.exists(frame_path(bake.out_dir, f))]
+        if len(done) == len(frames):  # nothing to do: no cluster started, no task sent
+            print(f"skipped {len(done)} finished frames\nbaked 0 frames to {bake.out_dir}")
+            return 0
+        if client is None:
+            client = farm.local_cluster(args.workers)
+        workers = len(client.scheduler_info().get("workers", {}))
+        size = args.chunk_size or farm.DEFAULT_CHUNK_SIZE
+        print(f"baking frames {frames.start}:{frames.stop - 1} in chunks of {size} on "
+              f"{args.scheduler or 'a local cluster'} ({workers} workers)", flush=True)
+        from tqdm import tqdm
+        with tqdm(total=len(frames), initial=len(done), unit="frame", desc="bake", file=sys.stderr,
+                  dynamic_ncols=True) as bar:
+            def progress(done):
+                bar.update(done - bar.n)
+            threads = None if args.workers is None else max(1, (os.cpu_count() or 1) // args.workers)
+            report = farm.bake_on_cluster(client, bake, os.path.abspath(args.scene),
+                                          {k: v for k, v in vars(args).items() if k != "run"}, size, progress, threads)
+    except farm.FarmError as err:
+        raise UserError(str(err)) from None
+    finally:
+        if bake is not None:
+            bake.release()
+        if client is not None:
+            cluster = client.cluster
+            client.close()
+        if cluster is not None:
+            cluster.close()
+    for chunk in sorted(report.chunks, key=lambda c: c["frames"]):
+        print(f"frames {chunk['frames'][0]}:{chunk['frames'][1]} on {chunk['host']} (pid {chunk['pid']}): "
+              f"{len(chunk['rendered'])} rendered, {len(chunk['replayed'])} placed to continue the sequence, "
+              f"{chunk['seconds']:.1f} s")
+    if report.skipped:
+        print(f"skipped {len(report.skipped)} finished frames")
+    hosts = {(c["host"], c["pid"]) for c in report.chunks}
+    print(f"baked {len(report.rendered)} frames to {bake.out_dir} in {time.perf_counter() - t0:.1f} s: "
+          f"{len(report.chunks)} chunks on {len(hosts)} worker processes, {report.replayed} frames' lights placed "
+          f"to continue the sequence across chunks")
     return 0
 
 
@@ -341,6 +416,16 @@ def parser() -> argparse.ArgumentParser:
     _render_flags(bk)
     bk.add_argument("--overwrite", action="store_true",
                     help="replace a bake of other settings (or frames not from a bake) in the folder")
+    bk.add_argument("--sequence-start", type=int, metavar="FRAME",
+                    help="the range is a chunk of a sequence that starts at FRAME (a farm job's task): the method's "
+                         "state is carried from there, so the chunks join without a seam")
+    bk.add_argument("--scheduler", metavar="tcp://HOST:PORT",
+                    help="bake in chunks on the workers of this Dask scheduler (needs dask[distributed]; the .blend "
+                         "and -o in folders every worker sees at the same path)")
+    bk.add_argument("--workers", type=int, metavar="N", help="bake in chunks on N Dask worker processes on this "
+                                                             "machine (needs dask[distributed])")
+    bk.add_argument("--chunk-size", type=int, metavar="FRAMES",
+                    help="frames per chunk with --workers or --scheduler (default 6)")
     bk.set_defaults(run=cmd_bake)
     ref = sub.add_parser("reference", help="render the Cycles reference of a .blend (cached by scene hash)")
     ref.add_argument("scene")

@@ -79,6 +79,19 @@ def test_lights_below_the_horizon_get_only_the_floor():
     np.testing.assert_allclose(prob[:4], (1 - FLOOR) * share / share.sum() + FLOOR / 8, rtol=1e-6)  # in float32
 
 
+def test_nothing_behind_an_area_lights_plane():
+    """A ceiling point just above a downward panel (inside the panel's bounding sphere's reach) gives the panel only
+    the uniform share and the emitter beside it the rest: the panel emits nothing upward (cornell_textured's
+    ceiling, where the sphere's bound alone gave the panel 97 % of the samples and doubled Diffuse Direct's rMAE)."""
+    panel = AreaLight("panel", [0.0, 0.0, 1.98], [0.5, 0.0, 0.0], [0.0, 0.5, 0.0], [0.0, 0.0, -1.0], [40.0] * 3)
+    tri = np.array([[[0.6, 0.9, 1.2], [0.8, 0.9, 1.2], [0.6, 0.9, 1.4]]])
+    glow = EmissiveTriangles(tri, np.array([[0.0, -1.0, 0.0]]), [[0.1] * 3])
+    p, n = np.array([[0.1, 0.1, 2.0], [0.1, 0.1, 0.0]]), np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]])
+    tree = LightTree([panel, glow])
+    on_ceiling, on_floor = tree.probability(p, n, np.zeros(2, np.int64))
+    assert on_ceiling == pytest.approx(FLOOR / 2) and on_floor > 0.9
+
+
 @pytest.mark.parametrize("cut", [256, 4])
 def test_direct_light_equals_the_sum_of_each_lights_own(cut):
     """Next-event estimation through the light tree is unbiased: over a floor lit by 40 lights of every kind, its

@@ -26,6 +26,15 @@ def extension_package():
     return sys.modules[PACKAGE]
 
 
+def call(name: str, *args):
+    """``<name>(*args)``, a function of the extension (``operators.farm.render_chunk``), in this process after loading
+    the extension: the entry a Dask worker runs. A task names this function, which any Python that has the
+    extension on its path can import; the extension's own modules load only once it runs."""
+    module, _, function = name.rpartition(".")
+    extension_package()
+    return getattr(importlib.import_module(f"{PACKAGE}.{module}"), function)(*args)
+
+
 def main(argv=None) -> int:
     extension_package()
     return importlib.import_module(f"{PACKAGE}.operators.cli").main(argv)

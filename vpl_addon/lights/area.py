@@ -21,6 +21,7 @@ class AreaLight(Light):
     power: np.ndarray  # RGB watts
     round: bool = False  # disk / ellipse instead of square / rectangle
     spread: float = np.pi  # full angle of the emission cone; below pi light is focused along the normal
+    planar = True  # one-sided, in the plane of its centre and axes
 
     def __post_init__(self):
         self.center = np.asarray(self.center, np.float64)

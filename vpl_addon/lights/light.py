@@ -19,6 +19,7 @@ class Light:
 
     name: str
     distant = False  # no position (the sun): the light tree keeps it beside its nodes
+    planar = False  # emits from a plane through its bounds' centre, to the side its orientation's axis points to
 
     @property
     def is_active(self) -> bool:

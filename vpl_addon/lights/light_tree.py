@@ -9,7 +9,10 @@ distance to the node's centre (at least its radius), theta' is the angle between
 to x less theta_o and the angle theta_u the bounding sphere subtends at x (zero past theta_e: no emitted light
 reaches x), and theta'_i is the angle between n and the direction to the centre less theta_u (zero below the
 horizon: a diffuse surface reflects nothing from there). For a point light (a leaf of radius 0) it is exactly the
-light it brings, I cos(theta_i) / d^2, shadows aside. The angles are handled by their cosines and sines only.
+light it brings, I cos(theta_i) / d^2, shadows aside; a planar light's leaf (an area light) gives nothing behind its
+plane, where the sphere's bound would (cornell_textured's ceiling, lit only by an emitter beside the panel above it:
+Diffuse Direct rMAE 0.160 with the sphere's bound, 0.047 with the plane, 0.073 before the tree). The angles are
+handled by their cosines and sines only.
 
 A light sample first chooses among the nodes of a *cut* of the tree (``CUT`` nodes, every leaf when there are no
 more lights than that), in proportion to their importance at its point, computed once per shading point for all
@@ -93,8 +96,8 @@ class LightTree:
         # each light's first choice (its node of the cut, or its own place after them) and the depth it is at
         self.entry, self.below = np.zeros(len(lights), np.int64), np.zeros(len(lights), np.int64)
         self.entry[self.distant] = np.arange(len(self.distant))
-        self.table, self.oriented, self.origin, self.points = np.zeros((0, 11)), False, np.zeros(3), False
-        self.cut_rows, self.unit, self.scale = np.zeros((0, 11), np.float32), 1.0, 1.0
+        self.table, self.oriented, self.origin, self.points = np.zeros((0, 12)), False, np.zeros(3), False
+        self.cut_rows, self.unit, self.scale = np.zeros((0, 12), np.float32), 1.0, 1.0
         if not placed:
             return
         center = np.array([lights[i].bounds()[0] for i in placed], np.float64).reshape(-1, 3)
@@ -104,6 +107,7 @@ class LightTree:
         theta_o = np.array([c[1] for c in cones], np.float64)
         theta_e = np.array([c[2] for c in cones], np.float64)
         intensity = np.array([lights[i].intensity_estimate() for i in placed], np.float64)
+        planar = np.array([lights[i].planar for i in placed], np.float64)
         # per node: centre, radius, axis, theta_o, theta_e, intensity, children (-1 at a leaf), light (-1 inside)
         nodes = [None]
         stack = [(np.arange(len(placed)), 0)]
@@ -111,7 +115,8 @@ class LightTree:
             members, at = stack.pop()
             if len(members) == 1:  # a leaf keeps its light's own sphere
                 i = members[0]
-                nodes[at] = (center[i], radius[i], axis[i], theta_o[i], theta_e[i], intensity[i], (-1, -1), placed[i])
+                nodes[at] = (center[i], radius[i], axis[i], theta_o[i], theta_e[i], intensity[i], planar[i], (-1, -1),
+                             placed[i])
                 continue
             # an inner node: the sphere around its lights' box
             lo = (center[members] - radius[members, None]).min(axis=0)
@@ -120,16 +125,17 @@ class LightTree:
             children = (len(nodes), len(nodes) + 1)
             nodes += [None, None]
             nodes[at] = (0.5 * (lo + hi), 0.5 * np.linalg.norm(hi - lo), cone[0][0], cone[1][0], cone[2][0],
-                         intensity[members].sum(), children, -1)
+                         intensity[members].sum(), 0.0, children, -1)
             if len(placed) > cut and len(members) > HEURISTIC_LEAST:
                 left = _split(members, center, radius, axis, theta_o, theta_e, intensity)
             else:  # a few lights, or every leaf in the cut (no sample walks the tree then): halves
                 left = _halves(center[members])
             stack += [(members[left], children[0]), (members[~left], children[1])]
-        center, radius, axis, spread, emit, intensity, self.children, self.light = map(np.array, zip(*nodes))
-        # one row per node, gathered at once: centre, radius^2, intensity, axis, cos and sin theta_o, cos theta_e
+        center, radius, axis, spread, emit, intensity, plane, self.children, self.light = map(np.array, zip(*nodes))
+        # one row per node, gathered at once: centre, radius^2, intensity, axis, cos and sin theta_o, cos theta_e,
+        # 1 at the leaf of a light that emits from a plane through its centre to one side (``Light.planar``)
         self.table = np.column_stack([center, radius ** 2, intensity, axis, np.cos(spread), np.sin(spread),
-                                      np.cos(emit)])
+                                      np.cos(emit), plane])
         self.oriented = bool((spread < np.pi).any())  # else every node emits everywhere: no cone to test
         self.origin = center[0]
         # the path from the root to each light: its nodes by depth, -1 past its leaf
@@ -177,7 +183,7 @@ class LightTree:
         return np.array(sorted(cut), np.int64)
 
     def importance(self, rows, p, n):
-        """Importance of the nodes whose ``table`` rows are ``rows`` (..., 11) at points p with normals n (..., 3),
+        """Importance of the nodes whose ``table`` rows are ``rows`` (..., 12) at points p with normals n (..., 3),
         broadcast against each other."""
         to = p - rows[..., 0:3]  # from the centre toward p
         return self._importance(rows, dot(to, to), -dot(n, to), dot(rows[..., 5:8], to))
@@ -198,6 +204,9 @@ class LightTree:
             cos_a, sin_a = cos_o * cos_u - sin_o * sin_u, sin_o * cos_u + cos_o * sin_u  # theta_o + theta_u
             emit = np.where(sin_a < 0.0, 1.0, _cos_less(cos_t, _sin(cos_t), cos_a, sin_a))  # past pi: all
             value = value * np.where(inside | (emit >= rows[..., 10]), emit, 0.0)
+            # a planar light's leaf: nothing behind its plane, which its sphere's cone bound would let through
+            # (the ceiling above a downward panel was given the panel, and an emitter beside it the rest)
+            value = value * ((rows[..., 11] == 0.0) | (along > 0.0))
         return value / np.maximum(d2, r2)
 
     def _first_choice(self, p, n):
@@ -249,7 +258,7 @@ class LightTree:
             share = self._first_choice(p[lo:lo + step], n[lo:lo + step])
             s = order[bounds[c]:bounds[c + 1]]
             row = at[s] - lo
-            cdf = np.cumsum(share, axis=1)
+            cdf = np.cumsum(share, axis=1, dtype=np.float64)  # float64: the rows below are offsets up to CHUNK
             # every point's cdf shifted by its row: one sorted array for all samples of the chunk
             pick = np.searchsorted((cdf + np.arange(len(cdf))[:, None]).ravel(), row + u[s], side="right")
             last = width - 1 - np.argmax(share[:, ::-1] > 0.0, axis=1)  # past it only the cdf's rounding
