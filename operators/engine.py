@@ -1,4 +1,5 @@
-"""The "VPL GI" RenderEngine: F12, ``blender -b ... -f N`` and the CLI all render through it.
+"""The "VPL GI" RenderEngine: F12, ``blender -b ... -f N`` and the CLI all render through it, and the 3D view's
+Rendered shading (``view_update`` / ``view_draw``, a thin layer over ``viewport.Viewport``).
 
 Passes follow the view layer's pass toggles, as with Cycles (Combined always; Diffuse Direct / Indirect / Color,
 Glossy Direct / Indirect / Color, Emission, Environment, Ambient Occlusion, Depth, Mist, Normal, Position, Object and
@@ -20,6 +21,7 @@ from ..vpl_addon.core.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
 from .extract import ExtractionError, extract
 from .frame_state import FRAME_LOG, active_sequence
+from .viewport import ImageTexture, Viewport, view_camera
 
 # (pass name, view layer toggle, channels, channel ids): the passes of light, then the data passes
 LIGHT_PASSES = (
@@ -89,8 +91,45 @@ def unwritten_passes(view_layer) -> list[str]:
 class VPLGIRenderEngine(bpy.types.RenderEngine):
     bl_idname = "VPL_GI"
     bl_label = "VPL GI"
-    bl_use_preview = False
+    bl_use_preview = False  # material previews: Blender's own (a render at our F12 settings takes seconds)
     bl_use_postprocess = True
+    bl_use_eevee_viewport = True  # Material Preview shading: EEVEE, as with Cycles
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)  # Blender makes the RenderEngine's own data here
+        self._viewport = None  # the 3D view's progressive render, made by its first view_update
+        self._texture = None
+
+    def __del__(self):
+        if getattr(self, "_viewport", None) is not None:  # its worker threads end with it
+            self._viewport.close()
+
+    @staticmethod
+    def _view(context, scene):
+        region = context.region
+        return view_camera(context.region_data.view_matrix, context.region_data.window_matrix, region.width,
+                           region.height, scene.vpl_gi)
+
+    def view_update(self, context, depsgraph):
+        if self._viewport is None:
+            self._viewport, self._texture = Viewport(), ImageTexture()
+        self._viewport.update(depsgraph, self._view(context, depsgraph.scene))
+
+    def view_draw(self, context, depsgraph):
+        import gpu
+        view = self._viewport
+        if view is None:
+            return
+        view.look(self._view(context, depsgraph.scene))
+        self.update_stats("VPL GI", view.status)
+        if view.frame is not None:
+            gpu.state.blend_set("ALPHA_PREMULT")
+            self.bind_display_space_shader(depsgraph.scene)
+            self._texture.draw(view.frame, context.region.width, context.region.height)
+            self.unbind_display_space_shader()
+            gpu.state.blend_set("NONE")
+        if view.busy:  # drawn again soon: the next image, or the status
+            self.tag_redraw()
 
     def _report(self, level: str, message: str):
         LAST_REPORTS.append((level, message))

@@ -349,12 +349,13 @@ class _Objects:
         return self.names[obj.name]
 
 
-def extract(depsgraph, progress=None) -> tuple[Scene, list[str]]:
+def extract(depsgraph, progress=None, camera: Camera | None = None) -> tuple[Scene, list[str]]:
     """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way. ``progress(text)`` hears
-    of long steps (Cycles baking the world) and may return False to stop them: ``Cancelled``."""
+    of long steps (Cycles baking the world) and may return False to stop them: ``Cancelled``. ``camera``: the view
+    to render instead of the scene's camera (the viewport's)."""
     scene = depsgraph.scene_eval
     warnings: list[str] = []
-    camera = camera_of(depsgraph.scene, depsgraph)
+    camera = camera_of(depsgraph.scene, depsgraph) if camera is None else camera
     materials = MaterialTable(warnings)
     parts, lights, objects = [], [], _Objects()
     unsupported = Unsupported()

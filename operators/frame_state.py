@@ -21,7 +21,8 @@ def settings_key(scene) -> dict:
     """Everything about the scene's settings that changes the baked pixels (not the frame range)."""
     props = scene.vpl_gi
     values = {p.identifier: getattr(props, p.identifier) for p in props.bl_rna.properties
-              if p.identifier not in {"rna_type", "name", "bake_directory", "bake_overwrite"}}
+              if p.identifier not in {"rna_type", "name", "bake_directory", "bake_overwrite"}
+              and not p.identifier.startswith("viewport_")}  # the 3D view's settings render no frame
     r = scene.render
     values.update(resolution=[r.resolution_x, r.resolution_y, r.resolution_percentage],
                   film_transparent=r.film_transparent,

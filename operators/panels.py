@@ -63,6 +63,20 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         layout.prop(settings, "denoise")
 
 
+class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):
+    """The 3D view's Rendered shading, as Cycles' Sampling > Viewport."""
+    bl_label = "Viewport"
+    bl_context = "render"
+
+    SETTINGS = ("viewport_samples", "viewport_time_limit", "viewport_start_resolution", "viewport_denoise")
+
+    def draw(self, context):
+        self.layout.use_property_split = True
+        column = self.layout.column()
+        for name in self.SETTINGS:
+            column.prop(context.scene.vpl_gi, name)
+
+
 class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):
     """The passes the engine writes, grouped as Cycles' own pass panels group them."""
     bl_label = "Passes"
@@ -150,7 +164,8 @@ class RENDER_PT_vpl_gi_performance(_VPLGIPanel, bpy.types.Panel):
         sub.prop(render, "threads")
 
 
-CLASSES = (RENDER_PT_vpl_gi, RENDER_PT_vpl_gi_light_paths, RENDER_PT_vpl_gi_film, RENDER_PT_vpl_gi_performance,
+CLASSES = (RENDER_PT_vpl_gi, RENDER_PT_vpl_gi_viewport, RENDER_PT_vpl_gi_light_paths,
+           RENDER_PT_vpl_gi_film, RENDER_PT_vpl_gi_performance,
            VIEWLAYER_PT_vpl_gi_passes, DATA_PT_vpl_gi_area_spread)
 
 

@@ -10,9 +10,10 @@ from ..vpl_addon.methods import MethodSettings
 from ..vpl_addon.methods.vbnl import VBNLSettings
 from ..vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
 from ..vpl_addon.paths.data_passes import Mist
+from ..vpl_addon.progressive import ViewportSettings
 from ..vpl_addon.render import RenderSettings
 
-_RENDER, _GATHER, _PLACE = RenderSettings(), GatherSettings(), MethodSettings()
+_RENDER, _GATHER, _PLACE, _VIEW = RenderSettings(), GatherSettings(), MethodSettings(), ViewportSettings()
 _VBNL = _PLACE.vbnl
 _SMC = _PLACE.smc
 
@@ -137,6 +138,20 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Width", default=1.5, min=0.01, max=10.0, subtype="PIXEL", **_cycles_setting("filter_width"),
         description="Width of the pixel filter in pixels (as Cycles' Film > Pixel Filter > Width; until set here, "
                     "the scene's Cycles value)")
+    viewport_samples: bpy.props.IntProperty(
+        name="Viewport Samples", default=_VIEW.samples, min=1, soft_max=1024,
+        description="Rendered shading in the 3D view: full-resolution passes (one camera and one light sample per "
+                    "pixel each) averaged before the view stops refining")
+    viewport_time_limit: bpy.props.FloatProperty(
+        name="Time Limit", default=_VIEW.time_limit, min=0.0, soft_max=60.0, subtype="TIME_ABSOLUTE",
+        description="Rendered shading: stop refining this many seconds after a change (0: the samples decide)")
+    viewport_start_resolution: bpy.props.IntProperty(
+        name="Start Resolution", default=_VIEW.start_resolution, min=8, soft_max=1024, subtype="PIXEL",
+        description="Rendered shading: the first image after a change has this many pixels on its longer side, then "
+                    "finer images follow up to the view's resolution (as Cycles' viewport Start Resolution)")
+    viewport_denoise: bpy.props.BoolProperty(
+        name="Denoise", default=_VIEW.denoise,
+        description="Rendered shading: denoise the image with OpenImageDenoise after each pass")
     bake_directory: bpy.props.StringProperty(
         name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
         description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
@@ -159,6 +174,11 @@ class VPLGISettings(bpy.types.PropertyGroup):
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
                               method=self.method, indirect_samples=self.indirect_samples, placement=placement,
                               gather=GatherSettings(interleave=self.interleave, clamp=self.clamp, filter=self.filter))
+
+    def viewport_settings(self) -> ViewportSettings:
+        """The progressive render of the 3D view's Rendered shading (``vpl_addon.progressive``)."""
+        return ViewportSettings(start_resolution=self.viewport_start_resolution, samples=self.viewport_samples,
+                                time_limit=self.viewport_time_limit, denoise=self.viewport_denoise)
 
 
 def register():

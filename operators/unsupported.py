@@ -83,9 +83,9 @@ class Unsupported:
         scene = depsgraph.scene
         if scene.render.use_motion_blur:
             self.note("motion blur", f"scene {scene.name!r} (Render > Motion Blur)")
-        camera = scene.camera.evaluated_get(depsgraph)
-        fstop = camera.data.dof.aperture_fstop
-        if camera.data.dof.use_dof and math.isfinite(fstop):  # Cycles: an aperture of lens / (2 f-stop)
+        camera = None if scene.camera is None else scene.camera.evaluated_get(depsgraph)  # none: the 3D view's
+        fstop = None if camera is None else camera.data.dof.aperture_fstop
+        if camera is not None and camera.data.dof.use_dof and math.isfinite(fstop):  # Cycles: lens / (2 f-stop)
             self.note("depth of field", f"camera {camera.name!r} (Depth of Field at f/{fstop:.3g})")
         world = depsgraph.scene_eval.world
         if world is not None and output_shader(world, "Volume") is not None:

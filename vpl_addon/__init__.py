@@ -10,7 +10,9 @@ Subpackages by kind, each importing only its own or a lower layer (checked by ``
     sequence    state kept between frames, motion, path verification                   ... paths
     methods     one subpackage per paper, with the modules only it uses                ... sequence
     render.py   one frame: extraction's ``Scene`` in, passes out                         everything above
+    progressive.py  the viewport's progressive render on a background thread             render and all above
     evaluation  metrics, comparison with Cycles, temporal error, convergence            core (and itself)
 
-Blender's side (``operators/``) builds a ``core.scene.Scene`` and calls ``render.render``; nothing here calls back.
+Blender's side (``operators/``) builds a ``core.scene.Scene`` and calls ``render.render`` (or, for the 3D view,
+``progressive.ProgressiveRenderer``); nothing here calls back.
 """
