@@ -66,9 +66,16 @@ def sha256(path: str) -> str:
     return digest.hexdigest()
 
 
+def _quiet_client():
+    """Dask's client logs a lost scheduler itself ("Failed to reconnect ... closing client"), at a moment that
+    depends on timing; the CLI says it in its one line (``_result``), so the client's own log keeps quiet."""
+    logging.getLogger("distributed.client").setLevel(logging.CRITICAL)
+
+
 def connect(address: str):
     """A client of the Dask scheduler at ``address`` (FarmError if it cannot be reached)."""
     from distributed import Client
+    _quiet_client()
     try:
         return Client(address, timeout=CONNECT_SECONDS, set_as_default=False)
     except (OSError, ValueError, TypeError) as err:
@@ -81,6 +88,7 @@ def local_cluster(workers: int):
     """A client of ``workers`` Dask worker processes of one thread on this machine (loopback only, no dashboard;
     no memory limit: a render's memory is not Dask's to spill, and a nanny's kill at a guessed limit loses work)."""
     from distributed import Client, LocalCluster
+    _quiet_client()
     cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host="127.0.0.1",
                            dashboard_address=None, memory_limit=0, silence_logs=logging.ERROR)
     return Client(cluster, set_as_default=False)
