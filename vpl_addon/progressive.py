@@ -43,8 +43,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .core import passes as P
-from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
-from .render import Cancelled, RenderSettings, render
+from .render import Cancelled, RenderSettings, denoise_combined, render
 from .sequence.state import SequenceState
 
 # pixels per block of the first image: its few pixels still spread over every core (the passes keep render's
@@ -284,7 +283,7 @@ class ProgressiveRenderer:
                     total[name] = total.get(name, 0.0) + image
                 images = {name: image / count for name, image in total.items()}
                 if viewport.denoise:
-                    images[P.COMBINED] = self._denoised(images, step.settings.threads, stop, result.warnings)
+                    images[P.COMBINED] = _denoised(images, step.settings.threads, stop, result.warnings)
             else:
                 images = result.passes
             with self._shown:
@@ -296,16 +295,14 @@ class ProgressiveRenderer:
                 self.warnings = result.warnings
         self._say(stop, f"done: {count} passes in {time.perf_counter() - started:.1f} s")
 
-    @staticmethod
-    def _denoised(images, threads, stop: threading.Event, warnings: list[str]) -> np.ndarray | None:
-        """Combined of the averaged ``images`` denoised (None if ``stop`` is set meanwhile: OIDN's run stops); as it
-        is, with a warning added to ``warnings``, without OIDN."""
-        combined = images[P.COMBINED].copy()
-        try:
-            combined[..., :3] = denoise(combined[..., :3], images[P.DENOISING_ALBEDO], images[P.DENOISING_NORMAL],
-                                        threads, lambda done: not stop.is_set())
-        except DenoiseCancelled:
-            return None
-        except DenoiserMissing as err:
-            warnings.append(f"{err}: the viewport is not denoised")
-        return combined
+
+def _denoised(images, threads, stop: threading.Event, warnings: list[str]) -> np.ndarray | None:
+    """Combined of the averaged ``images`` denoised (``render.denoise_combined``; None if ``stop`` is set meanwhile:
+    OIDN's run stops); as it is, with a warning added to ``warnings``, without OIDN."""
+    combined = images[P.COMBINED].copy()
+    try:
+        denoise_combined(combined, images[P.DENOISING_ALBEDO], images[P.DENOISING_NORMAL], threads,
+                         lambda done, text: not stop.is_set(), warnings, "the viewport")
+    except Cancelled:
+        return None
+    return combined

@@ -108,26 +108,22 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
     return np.where(color > 0.0, light / np.where(color > 0.0, color, 1.0), 0.0)
 
 
-def _denoised(images, h: int, w: int, settings: RenderSettings, progress, result: RenderResult) -> None:
-    """Combined's colour denoised in place (``core.denoise``), its progress told as "denoising" (``progress`` may
-    cancel it); without OIDN on this system, one warning and the image as it is."""
-    combined = images[P.COMBINED]
-    if not combined[:, :3].any():  # a black picture stays black (OIDN would leave traces of 1e-6)
+def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None, progress,
+                     warnings: list[str], what: str = "the image") -> None:
+    """Combined's colour (H,W,4) denoised in place (``core.denoise``) with the guides (H,W,3), its progress told as
+    "denoising" (``progress`` may cancel it: ``Cancelled``); a black picture stays black (OIDN would leave traces of
+    1e-6); without OIDN on this system, one warning in ``warnings`` and the image as it is."""
+    if not combined[..., :3].any():
         return
     told = None if progress is None else (lambda done: progress(done, "denoising"))
     if told is not None and told(0.0) is False:
         raise Cancelled()
-    t0 = time.perf_counter()
     try:
-        clean = denoise(combined[:, :3].reshape(h, w, 3), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
-                        images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, told)
+        combined[..., :3] = denoise(combined[..., :3], albedo, normal, threads, told)
     except DenoiseCancelled:
         raise Cancelled() from None
     except DenoiserMissing as err:
-        result.warnings.append(f"{err}: the image is not denoised")
-        return
-    combined[:, :3] = clean.reshape(-1, 3)
-    result.seconds["denoise"] = time.perf_counter() - t0
+        warnings.append(f"{err}: {what} is not denoised")
 
 
 def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
@@ -375,7 +371,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     if P.NOISY_IMAGE in want:
         images[P.NOISY_IMAGE] = images[P.COMBINED].copy()
     if settings.denoise:
-        _denoised(images, h, w, settings, progress, result)
+        t0 = time.perf_counter()
+        denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
+                         images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings)
+        result.seconds["denoise"] = time.perf_counter() - t0
     result.rays, result.threads = tracer.rays_traced, tracer.threads
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
                      if name in settings.passes or name == P.COMBINED}
