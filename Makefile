@@ -28,6 +28,17 @@ WHEELS_MACOS_ARM64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_12_0_arm64
 	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-macosx_11_0_arm64.whl
 WHEELS_MACOS_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_10_15_x86_64.whl \
 	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl
+# Compiled kernels (issue 26): numba and its LLVM binding; numba 0.62 is the last with macOS x86-64 wheels
+NUMBA_VERSION := 0.62.1
+LLVMLITE_VERSION := 0.45.1
+WHEELS_LINUX_X64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl \
+	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl
+WHEELS_WINDOWS_X64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-win_amd64.whl \
+	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-win_amd64.whl
+WHEELS_MACOS_ARM64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-macosx_11_0_arm64.whl \
+	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-macosx_11_0_arm64.whl
+WHEELS_MACOS_X64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl \
+	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl
 WHEELS := $(WHEELS_LINUX_X64) $(WHEELS_WINDOWS_X64) $(WHEELS_MACOS_ARM64) $(WHEELS_MACOS_X64)
 DEMO_SCENE := example_blends/cornell_area.blend
 
@@ -48,7 +59,7 @@ wheels: $(WHEELS)
 fetch_wheels = mkdir -p wheels && $(BIN)/python -m pip download --quiet --no-deps --only-binary=:all: \
 	--python-version 3.11 --implementation cp $(foreach tag,$(1),--platform $(tag)) -d wheels \
 	embreex==$(EMBREEX_VERSION) scipy==$(SCIPY_VERSION) pyoidn==$(PYOIDN_VERSION) cffi==$(CFFI_VERSION) \
-	pycparser==3.12 && ls $(2) >/dev/null
+	pycparser==3.12 numba==$(NUMBA_VERSION) llvmlite==$(LLVMLITE_VERSION) && ls $(2) >/dev/null
 
 $(WHEELS_LINUX_X64) &: | $(STAMP)
 	$(call fetch_wheels,manylinux_2_28_x86_64 manylinux2014_x86_64,$(WHEELS_LINUX_X64))
