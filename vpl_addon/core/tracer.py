@@ -20,6 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .compiled import kernel
+
 ULP_OFFSET = 16.0  # float32 steps along the normal; Waechter-Binder's 256 moves a point 2 m at 1e5 m from 0
 CHUNK = 1 << 16  # rays per embree call: large enough to amortise Python, small enough to share across threads
 FAR = 1e30
@@ -213,15 +215,36 @@ class Tracer:
         if not finite.any():  # distant lights only: rays to infinity
             blocked, crossed = self.occluded_through(origin, dirs, FAR)
             return ~blocked, crossed
-        target = p + dirs * np.where(finite, dist, 0.0)[:, None]
+        target = np.empty((0, 3))
         if target_normal is not None:
             t_side = np.where((np.einsum("ij,ij->i", target_normal, dirs) <= 0.0)[:, None],
                               target_normal, -target_normal)
-            target = self.offset_origin(target, t_side)
-        seg = target - origin
-        seg_len = np.linalg.norm(seg, axis=1)
-        new_dirs = np.where(finite[:, None] & (seg_len[:, None] > 0), seg / np.maximum(seg_len, 1e-300)[:, None],
-                            dirs)
-        tmax = np.where(finite, seg_len * (1.0 - 1e-5), FAR)
+            target = self.offset_origin(p + dirs * np.where(finite, dist, 0.0)[:, None], t_side)
+        new_dirs, tmax = np.empty((len(p), 3)), np.empty(len(p))
+        _segments(p, dirs, dist, origin, target, new_dirs, tmax)
         blocked, crossed = self.occluded_through(origin, new_dirs, tmax)
         return ~blocked, crossed
+
+
+@kernel
+def _segments(p, dirs, dist, origin, target, new_dirs, tmax):
+    """The shadow rays of ``visible_through``: from each ``origin`` toward the point at ``dist`` along ``dirs``
+    from p (or ``target`` if given: that point moved off its own surface), stopping just short of it; rays to an
+    infinite distance keep their direction and go to ``FAR``."""
+    for i in range(len(p)):
+        if not np.isfinite(dist[i]):
+            new_dirs[i] = dirs[i]
+            tmax[i] = FAR
+            continue
+        length = 0.0
+        for c in range(3):
+            end = target[i, c] if len(target) else p[i, c] + dirs[i, c] * dist[i]
+            new_dirs[i, c] = end - origin[i, c]
+            length += new_dirs[i, c] * new_dirs[i, c]
+        length = np.sqrt(length)
+        if length > 0.0:
+            for c in range(3):
+                new_dirs[i, c] /= length
+        else:
+            new_dirs[i] = dirs[i]
+        tmax[i] = length * (1.0 - 1e-5)

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..core.color import LUMINANCE
 from ..core.sampling import concentric_disk, cosine_hemisphere, dot, normalize
+from ..core.compiled import kernel
 from .light import Light
 
 
@@ -126,31 +127,15 @@ class AreaLight(Light):
         owner = np.arange(len(p)) if owner is None else owner
         wi, dist, weight = np.zeros((len(owner), 3)), np.zeros(len(owner)), np.zeros((len(owner), 3))
         front = dot(p - self.center, self.normal) > 0.0
-        rows = np.nonzero(front[owner])[0]
-        if len(rows) == 0:
+        if not front.any():
             return wi, dist, weight
-        per_point = self._spherical_rectangle(p[front])
-        at = (np.cumsum(front) - 1)[owner[rows]]  # each sample's point among those in front
-        x0, y0, zs, b0, b1, k, solid = (value[at] for value in per_point)
-        u1, u2 = u1[rows], u2[rows]
+        at = np.where(front, np.cumsum(front) - 1, -1)[owner]  # each sample's point among those in front, or -1
         x, y, z, lx, ly = self._frame()
-        x1, y1, z0 = x0 + lx, y0 + ly, -np.abs(zs)
-        au = u1 * solid + k
-        with np.errstate(divide="ignore", invalid="ignore"):
-            fu = (np.cos(au) * b0 - b1) / np.sin(au)
-            cu = np.clip(np.sign(fu) / np.sqrt(fu * fu + b0 * b0), -1.0, 1.0)
-            xu = np.clip(-(cu * z0) / np.sqrt(np.maximum(1.0 - cu * cu, 1e-300)), x0, x1)
-            dd = np.sqrt(xu * xu + z0 * z0)
-            h0 = y0 / np.sqrt(dd * dd + y0 * y0)
-            h1 = y1 / np.sqrt(dd * dd + y1 * y1)
-            hv = h0 + u2 * (h1 - h0)
-            yv = np.where(hv * hv < 1.0 - 1e-6, hv * dd / np.sqrt(np.maximum(1.0 - hv * hv, 1e-300)), y1)
-        local = np.stack([np.nan_to_num(xu, copy=False), np.nan_to_num(yv, copy=False), zs], axis=1)
-        to_l = local @ np.stack([x, y, z])
-        dist[rows] = np.linalg.norm(to_l, axis=1)
-        wi[rows] = to_l / np.maximum(dist[rows], 1e-300)[:, None]
-        cos_l = np.maximum(dot(-wi[rows], self.normal), 0.0)
-        weight[rows] = np.where(cos_l > 0.0, solid * self.spread_profile(cos_l), 0.0)[:, None] * self.radiance
+        h = 0.5 * float(np.clip(self.spread, np.radians(1.0), np.pi))
+        lambertian = h >= 0.5 * np.pi - 1e-6  # ``spread_profile``'s two cases
+        norm = 1.0 if lambertian else np.tan(h) * np.sin(h) ** 2 - h + np.sin(h) * np.cos(h)
+        _rectangle_samples(at, np.stack(self._spherical_rectangle(p[front]), axis=1), u1, u2, np.stack([x, y, z]),
+                           lx, ly, self.normal, self.radiance, lambertian, np.tan(h), norm, wi, dist, weight)
         return wi, dist, weight
 
     def mis(self, p, n, w):
@@ -176,3 +161,54 @@ class AreaLight(Light):
         origins = self.sample_points(rng.random(count), rng.random(count))
         dirs, cos = cosine_hemisphere(rng.random(count), rng.random(count), np.broadcast_to(self.normal, (count, 3)))
         return origins, dirs, self.spread_profile(cos)[:, None] * self.power
+
+
+@kernel
+def _rectangle_samples(at, per_point, u1, u2, frame, lx, ly, normal, radiance, lambertian, tan_h, norm,
+                       wi, dist, weight):
+    """The per-sample part of Urena et al.'s Algorithm 1, fused (``_sample_spherical_rectangle``): for each sample i
+    of the point ``at[i]`` (-1: behind the light, left zero), the direction ``wi``, distance ``dist`` and weight
+    L x solid angle x ``spread_profile`` (``lambertian``: 1; else from tan(h) and its normalisation ``norm``).
+    ``per_point`` (P,7): ``_spherical_rectangle``'s x0, y0, zs, b0, b1, k, solid; ``frame`` the rows x, y, z."""
+    for i in range(len(at)):
+        j = at[i]
+        if j < 0:
+            continue
+        x0, y0, zs, b0, b1, k, solid = (per_point[j, 0], per_point[j, 1], per_point[j, 2], per_point[j, 3],
+                                        per_point[j, 4], per_point[j, 5], per_point[j, 6])
+        z0 = -abs(zs)
+        au = u1[i] * solid + k
+        fu = (np.cos(au) * b0 - b1) / np.sin(au)
+        cu = _clip(np.sign(fu) / np.sqrt(fu * fu + b0 * b0), -1.0, 1.0)
+        xu = _clip(-(cu * z0) / np.sqrt(max(1.0 - cu * cu, 1e-300)), x0, x0 + lx)
+        dd = np.sqrt(xu * xu + z0 * z0)
+        y1 = y0 + ly
+        h0 = y0 / np.sqrt(dd * dd + y0 * y0)
+        h1 = y1 / np.sqrt(dd * dd + y1 * y1)
+        hv = h0 + u2[i] * (h1 - h0)
+        yv = hv * dd / np.sqrt(max(1.0 - hv * hv, 1e-300)) if hv * hv < 1.0 - 1e-6 else y1
+        xu = 0.0 if np.isnan(xu) else xu
+        yv = 0.0 if np.isnan(yv) else yv
+        length = 0.0
+        for c in range(3):
+            wi[i, c] = xu * frame[0, c] + yv * frame[1, c] + zs * frame[2, c]
+            length += wi[i, c] * wi[i, c]
+        length = np.sqrt(length)
+        dist[i] = length
+        for c in range(3):
+            wi[i, c] /= max(length, 1e-300)
+        cos_l = max(-(wi[i, 0] * normal[0] + wi[i, 1] * normal[1] + wi[i, 2] * normal[2]), 0.0)
+        if cos_l > 0.0:
+            if lambertian:
+                profile = 1.0
+            else:
+                c = _clip(cos_l, 1e-9, 1.0)
+                profile = max(tan_h - np.sqrt(1.0 - c * c) / c, 0.0) / norm
+            for c in range(3):
+                weight[i, c] = solid * profile * radiance[c]
+
+
+@kernel
+def _clip(value, lo, hi):
+    """np.clip of one number (NaN stays NaN)."""
+    return lo if value < lo else (hi if value > hi else value)

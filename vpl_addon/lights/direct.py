@@ -21,7 +21,8 @@ import numpy as np
 
 from ..core.sampling import dot, group_sum, power_heuristic, stratified_2d
 from ..materials.microfacet import GlossyLobe
-from ..materials.surface import diffuse_cosine
+from ..core.compiled import kernel
+from ..materials.surface import bump_shadowing
 
 RAYS_PER_BATCH = 1 << 20
 
@@ -59,9 +60,7 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         # shadow rays leave through the side the geometric normal faces (``_accumulate`` keeps only those): one
         # offset origin per point
         origin = tracer.offset_origin(p[lo:hi], ng[lo:hi])
-        p_at, ng_at, ns_at, smooth_at = (np.repeat(a[lo:hi], samples, axis=0)  # each sample's point
-                                         for a in (p, ng, ns, surface.smooth_normal))
-        at = (lo, hi, owner, origin, p_at, ng_at, ns_at, smooth_at)
+        at = (lo, hi, owner, origin, p[lo:hi], ng[lo:hi], ns[lo:hi], surface.smooth_normal[lo:hi])
         given = numbers or (None,) * 4
         u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
@@ -69,11 +68,13 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
             wi, dist, weight, target_n, which = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
             _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
-                        lambda rows: lights.local_pdf(p_at[rows], ns_at[rows], wi[rows], which[rows]), glazed)
+                        lambda rows: lights.local_pdf(p[lo:hi][owner[rows]], ns[lo:hi][owner[rows]], wi[rows],
+                                                       which[rows]), glazed)
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
             _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
-                        lambda rows: lights.world.mis(p_at[rows], ns_at[rows], wi[rows])[2], glazed)
+                        lambda rows: lights.world.mis(p[lo:hi][owner[rows]], ns[lo:hi][owner[rows]], wi[rows])[2],
+                        glazed)
         if glossy is not None:
             _lobe_samples(shine, at, lights, tracer, glossy, rng)
     if through is not None:
@@ -89,13 +90,18 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
     rays' origin at each point, and the position, geometric, shading and smooth normal of each sample's point);
     ``through`` (or ``out`` when None) takes the diffuse light of the rays that went through glass."""
     lo, hi, owner, origin, p, ng, ns, smooth = at
-    cos = diffuse_cosine(ns, smooth, wi)
-    total = weight.sum(axis=1)  # > 0 and finite: some light and no NaN or infinity (weights are not negative)
-    sel = np.nonzero((cos > 0.0) & (dot(ng, wi) > 0.0) & (total > 0.0) & (total < np.inf))[0]
+    cos = np.empty(len(wi))
+    sel = np.nonzero(_facing(owner, ng, ns, wi, weight, cos))[0]
+    bent = np.nonzero((smooth != ns).any(axis=1)[owner[sel]])[0]  # samples at points a normal map bent
+    if len(bent):
+        rows, points = sel[bent], owner[sel[bent]]
+        cos[rows] *= bump_shadowing(smooth[points], ns[points], wi[rows])
+        sel = sel[cos[sel] > 0.0]
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    seen, glass = tracer.visible_through(p[sel], ng[sel], wi[sel], dist[sel], on_geometry, origin[owner[sel]])
+    points = owner[sel]
+    seen, glass = tracer.visible_through(p[points], ng[points], wi[sel], dist[sel], on_geometry, origin[points])
     sel, glass = sel[seen], glass[seen]
     light = weight[sel] * (cos[sel] / np.pi)[:, None]
     if through is not None and glass.any():
@@ -117,6 +123,7 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
     geometric surface)."""
     lo, hi, owner, origin, p, ng, ns, _ = at
     rows = np.nonzero(glossy.present[owner + lo])[0]
+    p, ng, ns = p[owner], ng[owner], ns[owner]  # each light sample's point
     u1, u2 = (u.ravel()[rows] for u in stratified_2d(hi - lo, len(owner) // (hi - lo), rng))  # a net per point
     w, f_cos_pdf, p_lobe = glossy.sample(u1, u2, owner[rows] + lo)
     keep = np.nonzero((p_lobe > 0.0) & (dot(ns[rows], w) > 0.0) & (dot(ng[rows], w) > 0.0))[0]
@@ -137,3 +144,19 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
         hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]
         light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]
         shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)
+
+
+@kernel
+def _facing(owner, ng, ns, wi, weight, cos):
+    """(N,) which light samples can bring light: direction ``wi`` above the shading normal (``cos`` takes
+    max(0, ns . wi), the diffuse cosine before ``surface.bump_shadowing``) and the geometric normal of its point
+    ``owner``, and a weight that is positive and finite (no NaN or infinity reaches a pixel)."""
+    keep = np.zeros(len(owner), np.bool_)
+    for i in range(len(owner)):
+        j = owner[i]
+        c = ns[j, 0] * wi[i, 0] + ns[j, 1] * wi[i, 1] + ns[j, 2] * wi[i, 2]
+        cos[i] = max(c, 0.0)
+        total = weight[i, 0] + weight[i, 1] + weight[i, 2]
+        keep[i] = c > 0.0 and ng[j, 0] * wi[i, 0] + ng[j, 1] * wi[i, 1] + ng[j, 2] * wi[i, 2] > 0.0 and \
+            total > 0.0 and total < np.inf
+    return keep
