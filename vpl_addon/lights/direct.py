@@ -59,22 +59,22 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         owner = np.repeat(np.arange(hi - lo), samples)  # the point of each light sample, within the batch
         # shadow rays leave through the side the geometric normal faces (``_accumulate`` keeps only those): one
         # offset origin per point
-        origin = tracer.offset_origin(p[lo:hi], ng[lo:hi])
-        at = (lo, hi, owner, origin, p[lo:hi], ng[lo:hi], ns[lo:hi], surface.smooth_normal[lo:hi])
+        at_p, at_ns = p[lo:hi], ns[lo:hi]  # the batch's points
+        origin = tracer.offset_origin(at_p, ng[lo:hi])
+        at = (lo, hi, owner, origin, at_p, ng[lo:hi], at_ns, surface.smooth_normal[lo:hi])
         given = numbers or (None,) * 4
         u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
         if lights.local:
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
-            wi, dist, weight, target_n, which = lights.sample_incident(p[lo:hi], ns[lo:hi], strata, u1, u2, owner)
+            wi, dist, weight, target_n, which = lights.sample_incident(at_p, at_ns, strata, u1, u2, owner)
             _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
-                        lambda rows: lights.local_pdf(p[lo:hi][owner[rows]], ns[lo:hi][owner[rows]], wi[rows],
-                                                       which[rows]), glazed)
-        if lights.world is not None:
-            wi, dist, weight = lights.world.sample_incident(p[lo:hi], ns[lo:hi], w1, w2, owner)
-            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
-                        lambda rows: lights.world.mis(p[lo:hi][owner[rows]], ns[lo:hi][owner[rows]], wi[rows])[2],
+                        lambda rows: lights.local_pdf(at_p[owner[rows]], at_ns[owner[rows]], wi[rows], which[rows]),
                         glazed)
+        if lights.world is not None:
+            wi, dist, weight = lights.world.sample_incident(at_p, at_ns, w1, w2, owner)
+            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
+                        lambda rows: lights.world.mis(at_p[owner[rows]], at_ns[owner[rows]], wi[rows])[2], glazed)
         if glossy is not None:
             _lobe_samples(shine, at, lights, tracer, glossy, rng)
     if through is not None:
