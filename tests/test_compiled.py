@@ -1,5 +1,5 @@
 """The compiled kernels (``core.compiled``): machine code cached in the user's cache folder, so a second process
-loads it instead of compiling."""
+loads it instead of compiling, whatever name the engine was imported under."""
 import os
 import subprocess
 import sys
@@ -15,13 +15,38 @@ def twice(x):
     return 2.0 * x
 """
 
+SEGMENTS = """
+import numpy as np
+import importlib
+if {name!r}.startswith("vpl_gi."):
+    from vpl_addon.__main__ import extension_package
+    extension_package()
+tracer = importlib.import_module({name!r} + ".core.tracer")
+p, dirs = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
+new_dirs, tmax = np.empty((1, 3)), np.empty(1)
+tracer._segments(p, dirs, np.array([2.0]), p, np.empty((0, 3)), new_dirs, tmax)
+assert np.allclose(new_dirs, dirs) and 1.99 < tmax[0] < 2.0
+"""
+
+
+def run(code, cache):
+    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
+    env.update(VPL_GI_CACHE=str(cache), PYTHONPATH=os.pathsep.join([ROOT, str(cache.parent / "src")]))
+    subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=300, cwd=str(cache.parent))
+
 
 def test_kernels_are_cached_in_the_users_cache_folder(tmp_path):
     (tmp_path / "src").mkdir()
     (tmp_path / "src" / "doubling.py").write_text(MODULE)
-    env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
-    env.update(VPL_GI_CACHE=str(tmp_path / "cache"), PYTHONPATH=os.pathsep.join([ROOT, str(tmp_path / "src")]))
-    subprocess.run([sys.executable, "-c", "import doubling; assert doubling.twice(1.5) == 3.0"], env=env, check=True,
-                   timeout=300)
+    run("import doubling; assert doubling.twice(1.5) == 3.0", tmp_path / "cache")
     cached = [name for _, _, files in os.walk(tmp_path / "cache" / "numba") for name in files]
     assert any(name.startswith("doubling.twice") and name.endswith(".nbc") for name in cached), cached
+
+
+def test_a_kernel_cached_under_one_import_name_runs_under_another(tmp_path):
+    """The command line imports the engine as ``vpl_gi.vpl_addon``, the tests as ``vpl_addon``: a process of one
+    must not load the other's cached kernel (it would import a module that is not there)."""
+    (tmp_path / "src").mkdir()
+    run(SEGMENTS.format(name="vpl_gi.vpl_addon"), tmp_path / "cache")
+    run(SEGMENTS.format(name="vpl_addon"), tmp_path / "cache")
+    assert sorted(os.listdir(tmp_path / "cache" / "numba")) == ["vpl_addon", "vpl_gi.vpl_addon"]
