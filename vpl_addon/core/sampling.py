@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .compiled import kernel
+
 
 def normalize(v: np.ndarray) -> np.ndarray:
     """Unit vectors along the last axis; zero vectors stay zero instead of becoming NaN."""
@@ -19,9 +21,18 @@ def dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def group_sum(index: np.ndarray, values: np.ndarray, count: int) -> np.ndarray:
-    """(count, C) sums of the rows of ``values`` (N, C) by their group ``index`` (N,) in [0, count)."""
-    return np.stack([np.bincount(index, weights=values[:, c], minlength=count) for c in range(values.shape[1])],
-                    axis=1)
+    """(count, C) sums of the rows of ``values`` (N, C) by their group ``index`` (N,) in [0, count), in float64."""
+    out = np.zeros((count, values.shape[1]))
+    _add_rows(np.asarray(index, np.int64), np.asarray(values, np.float64), out)
+    return out
+
+
+@kernel
+def _add_rows(index, values, out):
+    """out[index[i]] += values[i], in the order of i (np.bincount's sums, all channels in one pass)."""
+    for i in range(len(index)):
+        for c in range(values.shape[1]):
+            out[index[i], c] += values[i, c]
 
 
 def power_heuristic(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -79,11 +79,15 @@ class Tracer:
             self._pool = None
 
     def _run(self, origins, dirs, tfar, query):
-        n = len(origins)
-        self.rays_traced += n
         o = np.ascontiguousarray(np.asarray(origins, np.float64) - self.center, dtype=np.float32)
         d = np.ascontiguousarray(dirs, dtype=np.float32)
         tf = np.ascontiguousarray(np.minimum(tfar, FAR), dtype=np.float32)
+        return self._run32(o, d, tf, query)
+
+    def _run32(self, o, d, tf, query):
+        """embree's answers for rays in its own terms: float32, origins relative to ``center``."""
+        n = len(o)
+        self.rays_traced += n
         output = 1 if query == "INTERSECT" else None
 
         def job(lo):
@@ -198,53 +202,61 @@ class Tracer:
         return self.visible_through(p, n, dirs, dist, target_normal, origin)[0]
 
     def visible_through(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
-                        target_normal: np.ndarray | None = None,
-                        origin: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                        target_normal: np.ndarray | None = None, origin: np.ndarray | None = None,
+                        at: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Visibility from surface points p (geometric normal n) along unit dirs to a point at distance dist.
 
         The origin is offset to the side of n that dirs leaves through; when the target lies on a surface too,
         its normal shortens the segment by the same robust margin so the target does not occlude itself (a zero
         target normal means the target is not on geometry). ``origin``: the offset origins when the caller has
-        them already (many rays leaving one point through the same side, ``offset_origin(p, n)``). Returns
-        (visible, whether the visible ray went through glass).
+        them already (many rays leaving one point through the same side, ``offset_origin(p, n)``). ``at``: p and
+        ``origin`` (then required) hold a row per point, and ray i leaves point at[i] (many rays from one point
+        need no copies of it). Returns (visible, whether the visible ray went through glass).
         """
+        count = len(dirs)
+        if self._scene is None or count == 0:
+            return np.ones(count, bool), np.zeros(count, bool)
         if origin is None:
             side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
             origin = self.offset_origin(p, side)
-        finite = np.isfinite(dist)
-        if not finite.any():  # distant lights only: rays to infinity
-            blocked, crossed = self.occluded_through(origin, dirs, FAR)
-            return ~blocked, crossed
+        at = np.arange(count) if at is None else at
         target = np.empty((0, 3))
         if target_normal is not None:
             t_side = np.where((np.einsum("ij,ij->i", target_normal, dirs) <= 0.0)[:, None],
                               target_normal, -target_normal)
-            target = self.offset_origin(p + dirs * np.where(finite, dist, 0.0)[:, None], t_side)
-        new_dirs, tmax = np.empty((len(p), 3)), np.empty(len(p))
-        _segments(p, dirs, dist, origin, target, new_dirs, tmax)
-        blocked, crossed = self.occluded_through(origin, new_dirs, tmax)
+            target = self.offset_origin(p[at] + dirs * np.where(np.isfinite(dist), dist, 0.0)[:, None], t_side)
+        if self.cutouts is None and OCCLUSION_RECORDER is None:  # the rays made in embree's terms: no copies
+            o, d, t = np.empty((count, 3), np.float32), np.empty((count, 3), np.float32), np.empty(count, np.float32)
+            _segments(p, at, dirs, dist, origin, target, self.center, o, d, t)
+            return np.concatenate(self._run32(o, d, t, "OCCLUDED")) < 0, np.zeros(count, bool)
+        o, d, t = np.empty((count, 3)), np.empty((count, 3)), np.empty(count)
+        _segments(p, at, dirs, dist, origin, target, np.zeros(3), o, d, t)
+        blocked, crossed = self.occluded_through(o, d, t)
         return ~blocked, crossed
 
 
 @kernel
-def _segments(p, dirs, dist, origin, target, new_dirs, tmax):
-    """The shadow rays of ``visible_through``: from each ``origin`` toward the point at ``dist`` along ``dirs``
-    from p (or ``target`` if given: that point moved off its own surface), stopping just short of it; rays to an
-    infinite distance keep their direction and go to ``FAR``."""
-    for i in range(len(p)):
+def _segments(p, at, dirs, dist, origin, target, shift, o, d, t):
+    """The shadow rays of ``visible_through``, written as (o - ``shift``, d, t) in the arrays' precision: ray i
+    from ``origin[at[i]]`` toward the point at ``dist[i]`` along ``dirs[i]`` from p[at[i]] (or ``target[i]`` if
+    given: that point moved off its own surface), stopping just short of it; a ray to an infinite distance keeps
+    its direction and goes to ``FAR``."""
+    for i in range(len(dirs)):
+        j = at[i]
+        o[i, 0], o[i, 1], o[i, 2] = origin[j, 0] - shift[0], origin[j, 1] - shift[1], origin[j, 2] - shift[2]
         if not np.isfinite(dist[i]):
-            new_dirs[i] = dirs[i]
-            tmax[i] = FAR
+            d[i, 0], d[i, 1], d[i, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+            t[i] = FAR
             continue
-        length = 0.0
-        for c in range(3):
-            end = target[i, c] if len(target) else p[i, c] + dirs[i, c] * dist[i]
-            new_dirs[i, c] = end - origin[i, c]
-            length += new_dirs[i, c] * new_dirs[i, c]
-        length = np.sqrt(length)
-        if length > 0.0:
-            for c in range(3):
-                new_dirs[i, c] /= length
+        if len(target):
+            s0, s1, s2 = target[i, 0] - origin[j, 0], target[i, 1] - origin[j, 1], target[i, 2] - origin[j, 2]
         else:
-            new_dirs[i] = dirs[i]
-        tmax[i] = length * (1.0 - 1e-5)
+            s0 = p[j, 0] + dirs[i, 0] * dist[i] - origin[j, 0]
+            s1 = p[j, 1] + dirs[i, 1] * dist[i] - origin[j, 1]
+            s2 = p[j, 2] + dirs[i, 2] * dist[i] - origin[j, 2]
+        length = np.sqrt(s0 * s0 + s1 * s1 + s2 * s2)
+        if length > 0.0:
+            d[i, 0], d[i, 1], d[i, 2] = s0 / length, s1 / length, s2 / length
+        else:
+            d[i, 0], d[i, 1], d[i, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+        t[i] = length * (1.0 - 1e-5)

@@ -100,8 +100,7 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    points = owner[sel]
-    seen, glass = tracer.visible_through(p[points], ng[points], wi[sel], dist[sel], on_geometry, origin[points])
+    seen, glass = tracer.visible_through(p, ng, wi[sel], dist[sel], on_geometry, origin, at=owner[sel])
     sel, glass = sel[seen], glass[seen]
     light = weight[sel] * (cos[sel] / np.pi)[:, None]
     if through is not None and glass.any():
