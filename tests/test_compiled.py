@@ -15,17 +15,14 @@ def twice(x):
     return 2.0 * x
 """
 
-SEGMENTS = """
+GROUP_SUM = """
 import numpy as np
 import importlib
 if {name!r}.startswith("vpl_gi."):
     from vpl_addon.__main__ import extension_package
     extension_package()
-tracer = importlib.import_module({name!r} + ".core.tracer")
-p, dirs = np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]])
-new_dirs, tmax = np.empty((1, 3)), np.empty(1)
-tracer._segments(p, dirs, np.array([2.0]), p, np.empty((0, 3)), new_dirs, tmax)
-assert np.allclose(new_dirs, dirs) and 1.99 < tmax[0] < 2.0
+sampling = importlib.import_module({name!r} + ".core.sampling")
+assert sampling.group_sum(np.array([0, 0, 1]), np.ones((3, 2)), 2).tolist() == [[2.0, 2.0], [1.0, 1.0]]
 """
 
 
@@ -47,6 +44,6 @@ def test_a_kernel_cached_under_one_import_name_runs_under_another(tmp_path):
     """The command line imports the engine as ``vpl_gi.vpl_addon``, the tests as ``vpl_addon``: a process of one
     must not load the other's cached kernel (it would import a module that is not there)."""
     (tmp_path / "src").mkdir()
-    run(SEGMENTS.format(name="vpl_gi.vpl_addon"), tmp_path / "cache")
-    run(SEGMENTS.format(name="vpl_addon"), tmp_path / "cache")
+    run(GROUP_SUM.format(name="vpl_gi.vpl_addon"), tmp_path / "cache")
+    run(GROUP_SUM.format(name="vpl_addon"), tmp_path / "cache")
     assert sorted(os.listdir(tmp_path / "cache" / "numba")) == ["vpl_addon", "vpl_gi.vpl_addon"]
