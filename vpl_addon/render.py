@@ -240,7 +240,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         numbers += [None, None]
                         continue
                     u, v = stratified_2d(len(pixels), count, rng)
-                    deal = np.argsort(rng.random((len(pixels), count)), axis=1)
+                    deal = rng.permuted(np.broadcast_to(np.arange(count), (len(pixels), count)), axis=1)
                     numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
                 through = None if glazed is None else np.zeros_like(surf.albedo)
                 direct, glossy = direct_light(surf, lights, tracer, settings.light_samples, rng,

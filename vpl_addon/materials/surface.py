@@ -19,6 +19,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
+from ..core.compiled import kernel
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
@@ -67,11 +68,8 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     prim = hits.prim[rows]
     b1, b2 = hits.u[rows], hits.v[rows]
     bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
-    tri = scene.triangles[prim].astype(np.float64)
-    position = interpolated(tri, bary)
-    ng = normalize(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]))  # of these triangles only: O(hits)
-    ns = normalize(interpolated(scene.normals[prim], bary))
-    ns = np.where((dot(ns, ns) > 0.5)[:, None], ns, ng)
+    position, ng, ns = np.empty((len(prim), 3)), np.empty((len(prim), 3)), np.empty((len(prim), 3))
+    _geometry(scene.triangles, scene.normals, prim, bary, position, ng, ns)
     mat = scene.material[prim]
     m = scene.materials
     inputs = _inputs(scene, mat, prim, bary, ns)
@@ -236,3 +234,30 @@ def diffuse_bounce(scene, tracer, surface: Surface, rng: np.random.Generator):
     theta)."""
     dirs, cos = cosine_hemisphere(rng.random(len(surface)), rng.random(len(surface)), surface.shading_normal)
     return (*bounce(scene, tracer, surface, dirs), dirs, cos)
+
+
+@kernel
+def _geometry(triangles, normals, prim, bary, position, ng, ns):
+    """Where the hits (triangle ``prim``, barycentric ``bary``) are, in float64: the ``position``, the unit
+    geometric normal ``ng`` of the triangle's winding (zero for a degenerate one) and the interpolated corner
+    normals, unit, in ``ns`` (``ng`` where they cancel out)."""
+    for i in range(len(prim)):
+        t = prim[i]
+        e1, e2, n = np.empty(3), np.empty(3), np.empty(3)
+        for c in range(3):
+            a, b, d = np.float64(triangles[t, 0, c]), np.float64(triangles[t, 1, c]), np.float64(triangles[t, 2, c])
+            position[i, c] = bary[i, 0] * a + bary[i, 1] * b + bary[i, 2] * d
+            e1[c], e2[c] = b - a, d - a
+            n[c] = bary[i, 0] * np.float64(normals[t, 0, c]) + bary[i, 1] * np.float64(normals[t, 1, c]) \
+                + bary[i, 2] * np.float64(normals[t, 2, c])
+        g0, g1, g2 = e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]
+        length = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+        if length > 0.0:
+            g0, g1, g2 = g0 / length, g1 / length, g2 / length
+        ng[i, 0], ng[i, 1], ng[i, 2] = g0, g1, g2
+        length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+        u0, u1, u2 = (n[0] / length, n[1] / length, n[2] / length) if length > 0.0 else (n[0], n[1], n[2])
+        if u0 * u0 + u1 * u1 + u2 * u2 > 0.5:
+            ns[i, 0], ns[i, 1], ns[i, 2] = u0, u1, u2
+        else:
+            ns[i, 0], ns[i, 1], ns[i, 2] = g0, g1, g2
