@@ -14,8 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.color import LUMINANCE
-from ..core.sampling import sample_cdf
-from ..materials.textures import sample_bilinear
+from ..core.compiled import kernel
 from .light import Light, disc_facing
 
 UNIFORM_SHARE = 0.1  # of the pdf spread by solid angle alone
@@ -51,47 +50,33 @@ class EnvironmentLight(Light):
     def flux_estimate(self, scene_radius):
         return self.mean_luminance * np.pi * np.pi * scene_radius ** 2
 
-    def _uv(self, w):
-        d = w @ self.rotation.T
-        d = d / np.maximum(np.linalg.norm(d, axis=1, keepdims=True), 1e-300)
-        u = np.mod(0.5 - np.arctan2(d[:, 1], d[:, 0]) / (2.0 * np.pi), 1.0)
-        v = 1.0 - np.arccos(np.clip(d[:, 2], -1.0, 1.0)) / np.pi
-        return u, v
-
     def radiance(self, w):
         """(N,3) radiance the world sends from directions w (N,3), bilinear as Cycles' Linear interpolation."""
-        u, v = self._uv(w)
-        return sample_bilinear(self.image, np.stack([u, v], axis=1))
+        return self._look(w)[0]
 
     def pdf(self, w):
         """(N,) solid-angle pdf of ``sample`` choosing direction w: texel probability x texels / (2 pi^2 sin)."""
-        h, wd = self.image.shape[:2]
-        u, v = self._uv(w)
-        col = np.minimum((u * wd).astype(np.int64), wd - 1)
-        row = np.minimum((v * h).astype(np.int64), h - 1)
-        sin = np.sin(np.pi * (1.0 - v))
-        density = self.texel_prob[row, col] * h * wd / (2.0 * np.pi * np.pi)
-        return np.where(sin > 1e-12, density / np.maximum(sin, 1e-12), 0.0)
+        return self._look(w)[1]
+
+    def _look(self, w):
+        radiance, pdf = np.empty((len(w), 3)), np.empty(len(w))
+        _look(self.image, self.texel_prob, self.rotation, np.asarray(w, np.float64), radiance, pdf)
+        return radiance, pdf
 
     def sample(self, u1, u2):
         """Directions (N,3) drawn with ``pdf``, from uniform numbers u1, u2 (N,)."""
-        h, wd = self.image.shape[:2]
-        row, fv = _invert(self.row_cdf, u1)
-        flat, fu = _invert(self.col_cdf, row + u2)
-        col = np.minimum(flat - row * wd, wd - 1)
-        u, v = (col + fu) / wd, (row + fv) / h
-        theta, phi = np.pi * (1.0 - v), 2.0 * np.pi * (0.5 - u)
-        d = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
-        return d @ self.rotation  # back from the map's frame to the world (R is a rotation: R^-1 = R^T)
+        wi = np.empty((len(u1), 3))
+        _sample(self.row_cdf, self.col_cdf, self.image.shape[1], self.rotation, u1, u2, wi)
+        return wi
 
     def _sample_incident(self, p, n, u1, u2):
         wi = self.sample(u1, u2)
-        pdf = self.pdf(wi)
-        weight = np.where(pdf[:, None] > 0.0, self.radiance(wi) / np.maximum(pdf, 1e-300)[:, None], 0.0)
+        radiance, pdf = self._look(wi)
+        weight = np.where(pdf[:, None] > 0.0, radiance / np.maximum(pdf, 1e-300)[:, None], 0.0)
         return wi, np.full(len(p), np.inf), weight
 
     def mis(self, p, n, w):
-        return np.full(len(p), np.inf), self.radiance(w), self.pdf(w)
+        return np.full(len(p), np.inf), *self._look(w)
 
     def emit(self, count, rng, center, radius):
         """Paths enter from the sampled directions, from a disc of the scene's radius across each: power
@@ -114,11 +99,57 @@ def _reach(lum):
     return np.max([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)], axis=0)
 
 
+@kernel
 def _invert(cdf, x):
     """(bin of x under the increasing ``cdf``, where x falls within that bin in [0, 1])."""
-    index = sample_cdf(cdf, x)
-    lo = np.where(index > 0, cdf[np.maximum(index - 1, 0)], 0.0)
-    return index, np.clip((x - lo) / np.maximum(cdf[index] - lo, 1e-300), 0.0, 1.0)
+    index = min(np.searchsorted(cdf, x, side="right"), len(cdf) - 1)
+    lo = cdf[index - 1] if index > 0 else 0.0
+    return index, min(max((x - lo) / max(cdf[index] - lo, 1e-300), 0.0), 1.0)
+
+
+@kernel
+def _sample(row_cdf, col_cdf, width, rotation, u1, u2, wi):
+    """``EnvironmentLight.sample``: a row by the marginal, a column by the row's conditional CDF (found as
+    row + u in the rows' CDFs laid end to end), a point within the texel, its direction turned back to the world
+    (R^-1 = R^T)."""
+    height = len(row_cdf)
+    for i in range(len(u1)):
+        row, fv = _invert(row_cdf, u1[i])
+        flat, fu = _invert(col_cdf, row + u2[i])
+        col = min(flat - row * width, width - 1)
+        theta, phi = np.pi * (1.0 - (row + fv) / height), 2.0 * np.pi * (0.5 - (col + fu) / width)
+        d0, d1, d2 = np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)
+        for c in range(3):
+            wi[i, c] = d0 * rotation[0, c] + d1 * rotation[1, c] + d2 * rotation[2, c]
+
+
+@kernel
+def _look(image, texel_prob, rotation, w, radiance, pdf):
+    """The map along directions w: the lookup direction d = R w as (u, v) (Cycles' equirectangular convention),
+    the radiance bilinear between the four texels around it (repeating at the edges, as Blender's Linear
+    interpolation), and ``sample``'s pdf there (0 at the poles)."""
+    height, width = texel_prob.shape
+    for i in range(len(w)):
+        d0 = rotation[0, 0] * w[i, 0] + rotation[0, 1] * w[i, 1] + rotation[0, 2] * w[i, 2]
+        d1 = rotation[1, 0] * w[i, 0] + rotation[1, 1] * w[i, 1] + rotation[1, 2] * w[i, 2]
+        d2 = rotation[2, 0] * w[i, 0] + rotation[2, 1] * w[i, 1] + rotation[2, 2] * w[i, 2]
+        length = max(np.sqrt(d0 * d0 + d1 * d1 + d2 * d2), 1e-300)
+        d0, d1, d2 = d0 / length, d1 / length, d2 / length
+        u = (0.5 - np.arctan2(d1, d0) / (2.0 * np.pi)) % 1.0
+        v = 1.0 - np.arccos(min(max(d2, -1.0), 1.0)) / np.pi
+        x, y = u * width - 0.5, v * height - 0.5
+        x0, y0 = np.floor(x), np.floor(y)
+        fx, fy = x - x0, y - y0
+        xa, xb = int(x0) % width, (int(x0) + 1) % width
+        ya, yb = int(y0) % height, (int(y0) + 1) % height
+        for c in range(3):
+            top = image[ya, xa, c] * (1 - fx) + image[ya, xb, c] * fx
+            bottom = image[yb, xa, c] * (1 - fx) + image[yb, xb, c] * fx
+            radiance[i, c] = top * (1 - fy) + bottom * fy
+        sin = np.sin(np.pi * (1.0 - v))
+        density = texel_prob[min(int(v * height), height - 1), min(int(u * width), width - 1)] * height * width \
+            / (2.0 * np.pi * np.pi)
+        pdf[i] = density / max(sin, 1e-12) if sin > 1e-12 else 0.0
 
 
 def _cdf(weights):
