@@ -43,6 +43,7 @@ from ..vpl_addon.evaluation import convergence as C
 from ..vpl_addon.evaluation.metrics import coverage_mask, errors, pass_mask
 from ..vpl_addon.evaluation.subdivision import levels_for, subdivide
 from ..vpl_addon.gather import summing
+from ..vpl_addon.lights.area import AreaLight
 from ..vpl_addon.methods import METHODS
 from ..vpl_addon.render import RenderSettings, render
 
@@ -587,57 +588,93 @@ def spans(curves: dict[str, C.Curve]) -> str:
 # scaling
 
 def scaling(bench: Bench, blend: str) -> list[str]:
-    """Wall time of one engine method against triangle count (midpoint subdivision), pixel count (resolution
-    percentage) and VPL count, with the fitted log-log exponent of each."""
+    """Wall time, rays per second as a share of raw embreex's on the same triangles and threads (measured in the
+    same run, ``profile.raw_embreex``) and peak memory of one engine method against triangle count (midpoint
+    subdivision, to 2 M), image size (256 px to 1920 x 1080), light count (the first rectangular light cut into 1
+    to 1000 strips, ``split_light``: the same light in expectation) and the method's budget, with the fitted
+    log-log exponent of each."""
+    from .profile import raw_embreex
     o = bench.o
     method = next((m for m in o.methods if m in METHODS), "bidir")
     knob = knob_of(method)
     label = os.path.splitext(os.path.basename(blend))[0]
     scene = bench.open_blend(blend)
     own = scene.render.resolution_percentage
+    size = scene.render.resolution_x, scene.render.resolution_y
 
-    def extracted(pct):
-        scene.render.resolution_percentage = max(1, own * pct // 100)
-        return extract(bpy.context.evaluated_depsgraph_get())[0]
+    def extracted(percentage, width=size[0], height=size[1]):
+        scene.render.resolution_percentage = percentage
+        scene.render.resolution_x, scene.render.resolution_y = width, height
+        try:
+            return extract(bpy.context.evaluated_depsgraph_get())[0]
+        finally:
+            scene.render.resolution_x, scene.render.resolution_y = size
 
     base = dataclasses.replace(scene.vpl_gi.render_settings(ENGINE_PASSES), method=method, samples=o.samples,
                                light_samples=o.light_samples)
     small, budget = (25, 64) if o.quick else (50, 1024)
-    built = extracted(small)
-    levels = levels_for(len(built.triangles))[:2 if o.quick else 4]
+    built = extracted(max(1, own * small // 100))
+    levels = levels_for(len(built.triangles), largest=2_000_000)[:2 if o.quick else None]
+    sizes = ((32, 32), (64, 36)) if o.quick else ((256, 256), (640, 360), (1280, 720), (1920, 1080))
     sweeps = {
         "triangles": [(len(built.triangles) * 4 ** k, lambda k=k: (subdivide(built, k), budget)) for k in levels],
-        "pixels": [(None, lambda p=p: (extracted(p), budget)) for p in ((25, 50) if o.quick else (25, 50, 100, 200))],
+        "pixels": [(w * h, lambda w=w, h=h: (extracted(100, w, h), budget)) for w, h in sizes],
         knob.name: [(b, lambda b=b: (built, b)) for b in ((64, 256) if o.quick else (256, 1024, 4096, 16384))],
     }
+    if any(_rectangle(light) for light in built.lights):
+        sweeps["lights"] = [(n, lambda n=n: (split_light(built, n), budget)) for n in
+                            ((1, 10) if o.quick else (1, 10, 100, 1000))]
+    raw = {}  # rays per second of raw embreex by triangle count
     rows, lines = [], [f"scaling ({label}, {method}, {o.samples} spp, {o.light_samples} light samples; "
                        f"{knob.name}={budget} and {small} % resolution unless varied):",
-                       f"  {'sweep':10s} {'count':>10s} {'wall s':>8s} {'M rays':>8s}"]
+                       f"  {'sweep':10s} {'count':>10s} {'wall s':>8s} {'M rays':>8s} {'M rays/s':>9s} {'% raw':>6s} "
+                       f"{'peak MB':>8s}"]
     bench.bar.reset(total=sum(len(v) for v in sweeps.values()))
     for sweep, points in sweeps.items():
         xs, ts = [], []
         for count, make in points:
             scene_here, n = make()
-            count = count if sweep != "pixels" else scene_here.camera.width * scene_here.camera.height
             bench.bar.set_description(f"scaling {sweep}={count}")
             if not xs:  # the first point of a sweep warms caches for its kind of change
                 render(scene_here, knob.apply(base, n))
             wall, result, mem = engine_run(scene_here, knob.apply(base, n))
+            if len(scene_here.triangles) not in raw:
+                raw[len(scene_here.triangles)] = raw_embreex(scene_here.triangles, result.threads,
+                                                             rays=200_000 if o.quick else 4_000_000)
+            share = result.rays / wall / raw[len(scene_here.triangles)]
             bench.bar.update(1)
             xs.append(count)
             ts.append(wall)
             rows.append({"sweep": sweep, "count": count, "wall_s": round(wall, 4),
                          **{f"{s}_s": _num(result.seconds.get(s)) for s in STAGES}, "rays": result.rays,
+                         "raw_rays_per_s": round(raw[len(scene_here.triangles)]), "share_of_raw": round(share, 4),
                          "peak_rss_mb": _num(mem.peak_mb, 1)})
-            lines.append(f"  {sweep:10s} {count:>10,d} {wall:8.2f} {result.rays / 1e6:8.1f}")
+            lines.append(f"  {sweep:10s} {count:>10,d} {wall:8.2f} {result.rays / 1e6:8.1f} "
+                         f"{result.rays / wall / 1e6:9.2f} {100 * share:6.0f} {mem.peak_mb:8.0f}")
         lines.append(f"  {sweep:10s} fitted exponent (wall ~ count^k): k = {C.fit_exponent(xs, ts):.2f}")
     path = os.path.join(o.out_dir, "scaling.csv")
     fd, tmp = tempfile.mkstemp(prefix=".partial-", suffix=".csv", dir=o.out_dir)
     with os.fdopen(fd, "w", newline="") as f:
-        writer = csv.DictWriter(f, ("sweep", "count", "wall_s", *(f"{s}_s" for s in STAGES), "rays", "peak_rss_mb"))
+        writer = csv.DictWriter(f, ("sweep", "count", "wall_s", *(f"{s}_s" for s in STAGES), "rays", "raw_rays_per_s",
+                                    "share_of_raw", "peak_rss_mb"))
         writer.writeheader()
         writer.writerows(rows)
     os.replace(tmp, path)
     for line in lines:
         bench.say(line)
     return lines
+
+
+def _rectangle(light) -> bool:
+    return isinstance(light, AreaLight) and not light.round
+
+
+def split_light(scene, count: int):
+    """``scene`` with its first rectangular area light cut into ``count`` strips along its X edge, each with its
+    share of the power: the same light in expectation, ``count`` lights for the light tree to choose among."""
+    index = next(i for i, light in enumerate(scene.lights) if _rectangle(light))
+    light = scene.lights[index]
+    strips = [dataclasses.replace(light, name=f"{light.name}.{k}", axis_u=light.axis_u / count,
+                                  center=light.center + ((k + 0.5) / count - 0.5) * light.axis_u,
+                                  power=light.power / count) for k in range(count)]
+    return dataclasses.replace(scene, lights=scene.lights[:index] + strips + scene.lights[index + 1:])

@@ -86,6 +86,22 @@ def test_subdivision_quadruples_triangles_and_keeps_the_surface():
 
 
 @pytest.mark.blender
+def test_a_light_cut_into_strips_gives_the_same_light(ext):
+    """The scaling bench's light sweep (``split_light``): 10 strips light the floor as the one panel did."""
+    from vpl_gi.bench.runner import split_light
+    from vpl_gi.vpl_addon.lights.area import AreaLight
+    from vpl_gi.vpl_addon.render import RenderSettings, render
+    panel = AreaLight("panel", [0.5, 0.0, 2.0], [2.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, -1.0], [100.0] * 3)
+    scene = plane_scene([panel], res=16)
+    strips = split_light(scene, 10)
+    assert len(strips.lights) == 10 and np.allclose(sum(s.power for s in strips.lights), panel.power)
+    settings = RenderSettings(samples=4, light_samples=16, method="none", passes=("Diffuse Direct",))
+    one, ten = (render(s, settings).passes["Diffuse Direct"] for s in (scene, strips))
+    assert abs(ten.mean() / one.mean() - 1.0) < 0.02
+    assert np.abs(ten - one).max() / one.max() < 0.1
+
+
+@pytest.mark.blender
 def test_bench_cli_tiny_run(ext, tmp_path):
     out = tmp_path / "bench"
     code, stdout, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--scaling",
@@ -119,9 +135,12 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     assert "gather shadow rays" in summary and "% of raw" in summary and "disagree" not in summary
     with open(out / "scaling.csv", newline="") as f:
         scaling = list(csv.DictReader(f))
-    assert {r["sweep"] for r in scaling} == {"triangles", "pixels", "vpls"}
+    assert {r["sweep"] for r in scaling} == {"triangles", "pixels", "vpls", "lights"}
     assert [int(r["count"]) for r in scaling if r["sweep"] == "triangles"] == [34 * 4 ** 4, 34 * 4 ** 5]
-    assert summary.count("fitted exponent") == 3
+    assert [int(r["count"]) for r in scaling if r["sweep"] == "pixels"] == [32 * 32, 64 * 36]
+    assert [int(r["count"]) for r in scaling if r["sweep"] == "lights"] == [1, 10]
+    assert all(0.0 < float(r["share_of_raw"]) < 2.0 and float(r["peak_rss_mb"]) > 0 for r in scaling)
+    assert summary.count("fitted exponent") == 4
     # a second run never replaces the results without --overwrite
     before = (out / "bench.csv").read_bytes()
     code, _, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--out", out)
