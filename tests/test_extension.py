@@ -25,7 +25,8 @@ PLATFORM_WHEEL_TAGS = {
     "macos-arm64": r"macosx_\d+_\d+_arm64",
     "macos-x64": r"macosx_\d+_\d+_x86_64",
 }
-BUNDLED = ["cffi", "embreex", "pycparser", "pyoidn", "scipy"]  # pycparser is pure Python: "any" platform
+# pycparser is pure Python: "any" platform
+BUNDLED = ["cffi", "embreex", "llvmlite", "numba", "pycparser", "pyoidn", "scipy"]
 
 INSTALL_AND_RENDER = textwrap.dedent("""
     import sys, bpy
@@ -92,13 +93,18 @@ def test_extension_builds_validates_installs_and_renders(tmp_path):
     user = tmp_path / "user"
     out = tmp_path / "render.exr"
     stdout = run("-c", INSTALL_AND_RENDER, zips["linux-x64"], EXAMPLES / "cornell_area.blend", out,
-                 env={"BLENDER_USER_EXTENSIONS": str(user / "extensions"), "BLENDER_USER_CONFIG": str(user / "config")})
+                 env={"BLENDER_USER_EXTENSIONS": str(user / "extensions"), "BLENDER_USER_CONFIG": str(user / "config"),
+                      "VPL_GI_CACHE": str(user / "cache")})
     engine_file = next(l.split(" ", 1)[1] for l in stdout.splitlines() if l.startswith("ENGINE_FILE"))
     assert engine_file.startswith(str(user)), "the render must run the installed copy, not the checkout"
     assert list(user.glob("extensions/.local/lib/python3.11/site-packages/embreex/rtcore_scene*.so")), \
         "the bundled embreex wheel was not installed"
     assert list(user.glob("extensions/.local/lib/python3.11/site-packages/scipy/spatial/_ckdtree*.so")), \
         "the bundled scipy wheel was not installed"
+    assert list(user.glob("extensions/.local/lib/python3.11/site-packages/llvmlite/binding/libllvmlite*")), \
+        "the bundled llvmlite wheel (numba's compiler, core.compiled) was not installed"
+    assert list(user.glob("cache/numba/bl_ext.user_default.vpl_gi.vpl_addon/**/*.nbc")), \
+        "the installed extension's kernels are cached in the user's cache folder under its import name"
     assert "denoised" not in next(line for line in stdout.splitlines() if line.startswith("REPORTS")), \
         "the bundled OpenImageDenoise (pyoidn, cffi, pycparser) must load in the installed extension"
     passes, _ = read_passes(str(out))
