@@ -184,12 +184,15 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             # light over metal needs no VPL (the lights' own light the metal reflects)
             need_indirect = len(vpls) > 0 or (sampled is None and scene.materials.glossy)
 
-        images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float64) for name in want | {P.DIFFUSE_COLOR}}
-        indirect = np.zeros((w * h, 3))
+        # the frame's arrays in float32, as the passes are written (a block's sums are made in float64): a
+        # 1920 x 1080 frame's pixels take 8 bytes a channel less
+        images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float32) for name in want | {P.DIFFUSE_COLOR}}
+        indirect = np.zeros((w * h, 3), np.float32)
         # the light of shadow rays through glass: Cycles' Diffuse Indirect (a transmission bounce), by pixel
-        glazed = np.zeros((w * h, 3)) if need_direct and bounces > 0 and scene.materials.glass.any() else None
+        glazed = np.zeros((w * h, 3), np.float32) if need_direct and bounces > 0 and scene.materials.glass.any() \
+            else None
         # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
-        shine, shine_color, glossy_color = np.zeros((w * h, 3)), np.zeros((w * h, 3)), np.zeros((w * h, 3))
+        shine, shine_color, glossy_color = (np.zeros((w * h, 3), np.float32) for _ in range(3))
         # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
         # gathering samples of that lobe, and their number
         guide_position, guide_normal = np.zeros((2, w * h, 3)), np.zeros((2, w * h, 3))

@@ -3,17 +3,22 @@ numba's JIT (issue 26).
 
 Every kernel is ``kernel``-decorated: compiled without the GIL (``nogil``), so the render's blocks, which already
 run on all cores (``render``), run their kernels concurrently; no kernel is ``parallel``, since numba's default
-threading layer may not be entered from two Python threads at once. Machine code is cached on disk, in the user's
-cache folder (``$VPL_GI_CACHE/numba/<the engine's import name>``, by default under ``~/.cache/vpl_gi``) unless numba
-was pointed elsewhere (``NUMBA_CACHE_DIR``) or imported before this module, so only the first render after an install
-pays for compiling (about a second per kernel). A folder per import name (``bl_ext.user_default.vpl_gi.vpl_addon`` in
-Blender, ``vpl_gi.vpl_addon`` from the command line, ``vpl_addon`` in tests): a cached kernel names the module it
-came from, which must import in the process that loads it. Kernels keep numpy's float semantics (no fastmath): an image must not depend on
-whether a loop was compiled.
+threading layer may not be entered from two Python threads at once. Kernels keep numpy's float semantics (no
+fastmath): an image must not depend on whether a loop was compiled.
+
+Machine code is cached on disk in the user's cache folder, ``$VPL_GI_CACHE/numba`` (by default under
+``~/.cache/vpl_gi``), so only the first render after an install pays for compiling (about a second per kernel),
+in a folder per module name (``bl_ext.user_default.vpl_gi.vpl_addon.core.tracer`` in Blender,
+``vpl_gi.vpl_addon.core.tracer`` from the command line, ``vpl_addon.core.tracer`` in tests): a cached kernel
+imports the module it was compiled in when it is loaded, so one compiled under another name, in another process,
+would fail to load. numba's own cache settings (``NUMBA_CACHE_DIR``) are left to other users of numba.
 """
 from __future__ import annotations
 
 import os
+
+import numba
+from numba.core import caching
 
 
 def cache_folder() -> str:
@@ -22,11 +27,29 @@ def cache_folder() -> str:
     return os.path.join(root, "numba")
 
 
-os.environ.setdefault("NUMBA_CACHE_DIR", os.path.join(cache_folder(), __name__.rpartition(".core.")[0]))
+class _Locator(caching.UserProvidedCacheLocator):
+    """numba's locator of a user-given cache folder, with ours and the kernel's module name in place of
+    ``NUMBA_CACHE_DIR``."""
 
-import numba  # noqa: E402  (reads NUMBA_CACHE_DIR when first imported)
+    def __init__(self, py_func, py_file):
+        super().__init__(py_func, py_file)
+        self._cache_path = os.path.join(cache_folder(), py_func.__module__, self.get_suitable_cache_subpath(py_file))
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        return super(caching.UserProvidedCacheLocator, cls).from_function(py_func, py_file)  # any NUMBA_CACHE_DIR
+
+
+class _Impl(caching.CompileResultCacheImpl):
+    _locator_classes = [_Locator]
+
+
+class _Cache(caching.FunctionCache):
+    _impl_class = _Impl
 
 
 def kernel(function):
-    """``function`` compiled by numba: nopython, GIL released, cached on disk."""
-    return numba.njit(nogil=True, cache=True, error_model="numpy")(function)
+    """``function`` compiled by numba: nopython, GIL released, cached in ``cache_folder()``."""
+    dispatcher = numba.njit(nogil=True, error_model="numpy")(function)
+    dispatcher._cache = _Cache(function)  # what cache=True does (Dispatcher.enable_caching), with our locator
+    return dispatcher
