@@ -9,8 +9,9 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
    and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
-3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
-   never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
+3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches on a thread
+   of their own while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held), share
+   the intensity of every vertex among the lights covering it, kept apart by bounce so that
    an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
    limit holds for the whole path).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
