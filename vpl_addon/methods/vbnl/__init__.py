@@ -167,8 +167,9 @@ def advance(state: PlacedFromPaths, context, settings, motion):
 
 def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     """(lights, info): sec. 3's placement. The photons' light paths do not depend on the lights, so they are traced
-    (or followed, in a sequence) on a thread of their own, with random numbers of their own, while the candidates
-    are found and thinned: at most ``AHEAD`` batches ahead of their splitting."""
+    on a thread of their own, with random numbers of their own, while the candidates are found and thinned: at
+    most ``AHEAD`` batches ahead of their splitting. A sequence's kept paths are followed first, alone, so that the
+    rays the tracer counts meanwhile are theirs (``light_path_rays``, the paper's Fig. 7 count)."""
     s = settings.vbnl
     marks = {"start": time.perf_counter()}
     own = replace(context, rng=np.random.default_rng(context.rng.integers(1 << 63, size=2)))
@@ -178,8 +179,9 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
             batches = _ahead([partial(_photons, own, first, min(PATHS_PER_BATCH, s.photons - first))
                               for first in range(0, s.photons, PATHS_PER_BATCH)], tracing, AHEAD)
         else:
-            followed = tracing.submit(follow, state.paths, own, motion, 0, settings.path_reuse,
-                                      settings.path_threshold, paths=s.photons)
+            traced = follow(state.paths, own, motion, 0, settings.path_reuse, settings.path_threshold,
+                            paths=s.photons)
+            marks["light_paths"] = time.perf_counter()
         position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
         marks["candidates"] = time.perf_counter()
         kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
@@ -193,7 +195,7 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
             traced = s.photons if len(lights) else 0
             by_bounce = _split(lights, batches if traced else (), bounces, context.tracer.threads) / max(traced, 1)
         else:  # the kept photons, intensities already divided by the number of paths
-            traced, photons = followed.result(), state.paths.lights()
+            photons = state.paths.lights()
             by_bounce = _split(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
                                         for first in range(0, len(photons), POINTS_PER_BATCH)), bounces,
                                context.tracer.threads)
