@@ -1,9 +1,12 @@
-"""Time of the two heavy stages of Virtual Blue Noise Lighting's placement (Li et al. 2022, sec. 3.2-3.3).
+"""Time of Virtual Blue Noise Lighting's placement (Li et al. 2022, sec. 3) and of its two heavy stages at scale.
 
+0. The placement at the engine's defaults (4,096 lights from 40,960 candidates, 2^18 light paths), its stages as
+   ``RenderResult.info["seconds"]`` has them, after a warm-up placement (compiled kernels load from disk).
 1. Adaptive sample elimination of 1,000,000 camera candidates (sec. 3.1, found in the scene) to 100,000 lights
    (that it spaces them like the sequential greedy is a test, tests/test_vbnl.py; here only the time).
 2. Photon splitting of 10,000,000 photons (light-path vertices) among those 100,000 lights: light paths traced
-   in batches and never stored, each vertex's intensity shared among the lights covering it.
+   in batches and never stored, each vertex's intensity shared among the lights covering it on the tracer's
+   threads.
 
     .venv/bin/python bench/vbnl_stages.py [SCENE.blend] [--candidates N] [--lights N] [--photons N]
 """
@@ -14,6 +17,7 @@ import os
 import pathlib
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -44,6 +48,7 @@ def main():
     scene = load_scene(args.scene)
     from vpl_gi.vpl_addon.core.tracer import Tracer
     from vpl_gi.vpl_addon.lights import LightSet
+    from vpl_gi.vpl_addon.methods import MethodContext, MethodSettings, place
     from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates
     from vpl_gi.vpl_addon.methods.vbnl.photon_lights import ALPHA, PhotonLights
     from vpl_gi.vpl_addon.methods.vbnl.sample_elimination import eliminate
@@ -53,6 +58,13 @@ def main():
     tracer = Tracer(scene.triangles)
     lights_in_scene = LightSet(scene)
     print(f"{os.path.basename(args.scene)}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}")
+    for _ in range(2):  # the first loads the compiled kernels
+        context = MethodContext(scene, tracer, lights_in_scene, rng, scene.max_bounces)
+        t = time.perf_counter()
+        _, info = place("vbnl", context, MethodSettings())
+        seconds = time.perf_counter() - t
+    print(f"placement at the defaults: {seconds:.2f} s (" +
+          ", ".join(f"{stage} {s:.2f}" for stage, s in info["seconds"].items()) + ")")
     t = time.perf_counter()
     position, normal = candidates(scene, tracer, args.candidates, rng)
     print(f"candidates from the camera: {len(position):,} in {time.perf_counter() - t:.2f} s")
@@ -62,16 +74,18 @@ def main():
     lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
     split = paths = 0
     trace_seconds = split_seconds = 0.0
+    pool = ThreadPoolExecutor(tracer.threads)
     while split < args.photons:
         t = time.perf_counter()
         photons = trace_paths(scene, tracer, lights_in_scene, PATHS_PER_BATCH, rng, scene.max_bounces,
                               first_path=paths)
         t2 = time.perf_counter()
-        lights.spread(photons.position, photons.normal, photons.intensity)
+        lights.spread(photons.position, photons.normal, photons.intensity, pool=pool, workers=tracer.threads)
         split_seconds += time.perf_counter() - t2
         trace_seconds += t2 - t
         split += len(photons)
         paths += PATHS_PER_BATCH
+    pool.shutdown()
     print(f"photon splitting of {split:,} photons ({paths:,} light paths) among {len(lights):,} lights: "
           f"{trace_seconds + split_seconds:.2f} s (tracing {trace_seconds:.2f} s, splitting {split_seconds:.2f} s)")
     tracer.close()

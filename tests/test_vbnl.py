@@ -1,5 +1,6 @@
 """Virtual Blue Noise Lighting without Blender: sample elimination, photon lights and splitting, the sampled gather."""
 import heapq
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 import pytest
@@ -10,7 +11,7 @@ from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodContext, MethodSettings, place
 from vpl_addon.methods.vbnl import VBNLSettings, catchment
-from vpl_addon.methods.vbnl.photon_lights import PhotonLights
+from vpl_addon.methods.vbnl.photon_lights import SLAB, PhotonLights
 from vpl_addon.methods.vbnl.sample_elimination import WEIGHT_EXPONENT, eliminate
 
 
@@ -55,15 +56,13 @@ def sequential_greedy(points, count, local=32, neighbours=40):
     return np.nonzero(alive)[0], r
 
 
-def test_vectorised_elimination_spaces_samples_like_the_sequential_greedy():
+def test_elimination_removes_candidates_in_the_sequential_greedy_order():
+    """The compiled heap elimination keeps exactly the candidates the reference keeps, so it spaces them alike."""
     points = uneven_points(12_000)
     ours = eliminate(points, 1200, np.random.default_rng(0))
     keep, r = sequential_greedy(points, 1200)
-    assert len(ours.keep) == len(np.unique(ours.keep)) == 1200
-    mean, low = spacing(points, ours.keep, ours.r_max)
-    ref_mean, ref_low = spacing(points, keep, r[keep])
-    assert mean == pytest.approx(ref_mean, rel=0.03)
-    assert low == pytest.approx(ref_low, rel=0.05)
+    assert np.array_equal(np.sort(ours.keep), keep)
+    assert np.allclose(ours.r_max[np.argsort(ours.keep)], r[keep])
 
 
 def test_adaptive_elimination_is_blue_noise_and_keeps_the_density():
@@ -107,6 +106,68 @@ def test_shares_are_a_partition_of_unity_and_splitting_conserves_intensity():
     values = rng.random((5000, 3))
     assert np.allclose(lights.spread(points, up, values).sum(axis=0), values.sum(axis=0))
     assert lights.spread(points, -up, values).sum() == 0.0  # photons on the other side light nothing
+
+
+def box_lights(count, rng):
+    """Lights on the six faces of the unit cube, facing in, radii from 0.05 to 0.2 and one of 0.9."""
+    face = rng.integers(0, 6, count)
+    position = rng.random((count, 3))
+    position[np.arange(count), face // 2] = face % 2
+    normal = np.zeros((count, 3))
+    normal[np.arange(count), face // 2] = 1 - 2 * (face % 2)
+    radius = 0.05 + 0.15 * rng.random(count)
+    radius[0] = 0.9
+    return PhotonLights(position, normal, radius, np.zeros((count, 3)))
+
+
+def points_near_box_faces(count, rng):
+    """Points on the cube's faces, up to 2 mm off them, and their inward normals (the first 100 flipped)."""
+    face = rng.integers(0, 6, count)
+    points = rng.random((count, 3))
+    points[np.arange(count), face // 2] = face % 2 + (rng.random(count) - 0.5) * 0.004
+    normals = np.zeros((count, 3))
+    normals[np.arange(count), face // 2] = 1 - 2 * (face % 2)
+    normals[:100] *= -1
+    return points, normals
+
+
+def all_pairs_shares(lights, points, normals):
+    """The definition of ``PhotonLights.shares`` over every (point, light) pair, sorted by point and light."""
+    offset = points[:, None, :] - lights.position[None]
+    dist = np.linalg.norm(offset, axis=2)
+    slab = np.abs(np.einsum("pnj,nj->pn", offset, lights.normal))
+    inside = (dist <= lights.radius) & (normals @ lights.normal.T > 0) & (slab <= SLAB * lights.radius)
+    rows, light = np.nonzero(inside)
+    w = np.maximum(1 - (dist[rows, light] / lights.radius[light]) ** 2, 1e-12)
+    return rows, light, w / np.bincount(rows, w, len(points))[rows]
+
+
+def test_shares_from_the_light_grid_are_those_of_every_pair():
+    rng = np.random.default_rng(3)
+    lights = box_lights(600, rng)
+    points, normals = points_near_box_faces(20_000, rng)
+    rows, light, share = lights.shares(points, normals)
+    ref_rows, ref_light, ref_share = all_pairs_shares(lights, points, normals)
+    order = np.lexsort((light, rows))
+    assert np.array_equal(rows, ref_rows) and np.array_equal(light[order], ref_light)
+    assert np.allclose(share[order], ref_share, rtol=1e-9, atol=1e-13)
+    of_light_0 = lights.share_of(points, normals, np.zeros(len(points), np.int64))
+    assert np.allclose(of_light_0, np.bincount(ref_rows, ref_share * (ref_light == 0), len(points)), rtol=1e-9,
+                       atol=1e-13)
+
+
+def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group():
+    rng = np.random.default_rng(4)
+    lights = box_lights(300, rng)
+    points, normals = points_near_box_faces(10_000, rng)
+    values, group = rng.random((10_000, 3)), rng.integers(0, 4, 10_000)
+    rows, light, share = all_pairs_shares(lights, points, normals)
+    slot = light * 4 + group[rows]
+    expected = np.stack([np.bincount(slot, share * values[rows, c], 300 * 4) for c in range(3)], axis=1)
+    with ThreadPoolExecutor(2) as pool:
+        for split in (lights.spread(points, normals, values, group, 4),
+                      lights.spread(points, normals, values, group, 4, pool, 3)):
+            assert np.allclose(split, expected.reshape(300, 4, 3), rtol=1e-9, atol=1e-13)
 
 
 def test_catchments_add_up_to_the_area_the_lights_cover():

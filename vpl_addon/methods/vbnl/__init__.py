@@ -9,8 +9,9 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
    and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
-3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches and
-   never stored, share the intensity of every vertex among the lights covering it, kept apart by bounce so that
+3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches on a thread
+   of their own while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held), share
+   the intensity of every vertex among the lights covering it, kept apart by bounce so that
    an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
    limit holds for the whole path).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
@@ -23,7 +24,11 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from collections import deque
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass, field, replace
+from functools import partial
+from itertools import islice
 
 import numpy as np
 
@@ -44,6 +49,7 @@ POINTS_PER_BATCH = 1 << 18
 DROP = SLAB  # catchment rays start this many radii above the light's tangent plane: its whole slab
 SPECULAR_EXTENSION = 4  # metal surfaces a candidate's camera path may pass before it gives up
 REFINE = 16  # catchment points, as a multiple, for a light that few of its first points found (``catchment``)
+AHEAD = 8  # batches of photons traced before their lights exist (about 80 MB at PATHS_PER_BATCH)
 
 
 @dataclass
@@ -160,33 +166,41 @@ def advance(state: PlacedFromPaths, context, settings, motion):
 
 
 def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
+    """(lights, info): sec. 3's placement. The photons' light paths do not depend on the lights, so they are traced
+    on a thread of their own, with random numbers of their own, while the candidates are found and thinned: at
+    most ``AHEAD`` batches ahead of their splitting. A sequence's kept paths are followed first, alone, so that the
+    rays the tracer counts meanwhile are theirs (``light_path_rays``, the paper's Fig. 7 count)."""
     s = settings.vbnl
     marks = {"start": time.perf_counter()}
-    position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
-    marks["candidates"] = time.perf_counter()
-    kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
-    lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
-    marks["elimination"] = time.perf_counter()
-    lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
-    bounces = max(context.max_bounces, 1)
-    by_bounce = np.zeros((len(lights), bounces, 3))
-    traced = 0
-    if state is None:
-        while traced < s.photons and len(lights):
-            count = min(PATHS_PER_BATCH, s.photons - traced)
-            photons = trace_paths(context.scene, context.tracer, context.lights, count, context.rng,
-                                  context.max_bounces, first_path=traced)
-            by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
-                                       bounces)
-            traced += count
-        by_bounce /= max(traced, 1)
-    elif len(lights):  # the kept photons (intensities already divided by the number of paths)
-        traced = follow(state.paths, context, motion, 0, settings.path_reuse, settings.path_threshold,
-                        paths=s.photons)
-        photons = state.paths.lights()
-        for first in range(0, len(photons), POINTS_PER_BATCH):
-            part = photons.take(slice(first, first + POINTS_PER_BATCH))
-            by_bounce += lights.spread(part.position, part.normal, part.intensity, part.bounce - 1, bounces)
+    own = replace(context, rng=np.random.default_rng(context.rng.integers(1 << 63, size=2)))
+    tracing = ThreadPoolExecutor(1)
+    try:
+        if state is None:
+            batches = _ahead([partial(_photons, own, first, min(PATHS_PER_BATCH, s.photons - first))
+                              for first in range(0, s.photons, PATHS_PER_BATCH)], tracing, AHEAD)
+        else:
+            traced = follow(state.paths, own, motion, 0, settings.path_reuse, settings.path_threshold,
+                            paths=s.photons)
+            marks["light_paths"] = time.perf_counter()
+        position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
+        marks["candidates"] = time.perf_counter()
+        kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
+        lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max,
+                              np.zeros((len(kept.keep), 3)))
+        marks["elimination"] = time.perf_counter()
+        lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
+        marks["catchment"] = time.perf_counter()
+        bounces = max(context.max_bounces, 1)
+        if state is None:  # intensities divided by the number of paths
+            traced = s.photons if len(lights) else 0
+            by_bounce = _split(lights, batches if traced else (), bounces, context.tracer.threads) / max(traced, 1)
+        else:  # the kept photons, intensities already divided by the number of paths
+            photons = state.paths.lights()
+            by_bounce = _split(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
+                                        for first in range(0, len(photons), POINTS_PER_BATCH)), bounces,
+                               context.tracer.threads)
+    finally:
+        tracing.shutdown(cancel_futures=True)
     lights.by_bounce = np.cumsum(by_bounce, axis=1)
     lights.intensity = lights.by_bounce[:, -1]
     marks["photon_splitting"] = time.perf_counter()
@@ -197,6 +211,37 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     if state is not None:
         info["light_path_rays"] = state.paths.rays_last_frame
     return lights, info
+
+
+def _photons(context, first: int, count: int):
+    """The photons (light-path vertices) of ``count`` light paths, the first numbered ``first``."""
+    return trace_paths(context.scene, context.tracer, context.lights, count, context.rng, context.max_bounces,
+                       first_path=first)
+
+
+def _ahead(jobs, executor, depth: int):
+    """The results of ``jobs`` in order, each run on ``executor`` while at most ``depth`` - 1 results wait to be
+    taken (the first ``depth`` start at once)."""
+    jobs = iter(jobs)
+    pending = deque(executor.submit(job) for job in islice(jobs, depth))
+
+    def results():
+        while pending:
+            done = pending.popleft().result()
+            pending.extend(executor.submit(job) for job in islice(jobs, 1))
+            yield done
+    return results()
+
+
+def _split(lights, batches, bounces: int, threads: int) -> np.ndarray:
+    """(N, bounces, 3) photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the
+    lights covering them, kept apart by bounce, each batch split over ``threads`` threads."""
+    by_bounce = np.zeros((len(lights), bounces, 3))
+    with ThreadPoolExecutor(threads) as pool:
+        for photons in batches:
+            by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
+                                       bounces, pool, threads)
+    return by_bounce
 
 
 def gather_samples(settings) -> int:

@@ -19,21 +19,73 @@ diffusely reflected light only and keep a single value each: the paper's directi
 octahedral maps) for lights on glossy surfaces are replaced by extending camera paths through metallic lobes
 (``virtual_light_sampling``).
 
-The lights covering many points at once come from one scipy k-d tree query of the ``neighbours`` nearest light
-centres, kept where the distance is below that light's radius.
+The lights that may cover a point are listed in its cell of a hashed uniform grid (``LightGrid``): a light's
+support is a thin disc (its sphere within ``SLAB`` r_j of its tangent plane), listed in every cell the disc's
+bounding box touches. Compiled kernels (``core.compiled``) test a point against its cell's lights and share or
+split in one loop (photon splitting of 10 M photons among 100 K lights: bench/vbnl_stages.py).
 """
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial import cKDTree
+
+from ...core.compiled import kernel
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
 SLAB = 0.02  # a light covers points within this many radii of its tangent plane: no share across thin walls
 # (0.1 still let rugs, sills and frames a few centimetres off a floor or wall share lights: with the same constant
 # world in both renderers the living room was 1.27x Cycles' mean at 0.1, 1.23x at 0.05, 1.08x at 0.02; the flat
 # example scenes are unchanged and the sphere of cornell_textured within noise)
+CELL = 1.0  # the grid's cell, in median light radii (about 10 lights listed per cell at alpha = 2)
+LISTED = 64  # at most this many cell entries per light on average: the cell grows for lights of very unequal size
+HASH = (73856093, 19349663, 83492791)  # Teschner et al. 2003, spatial hashing of a cell's integer coordinates
+
+
+@dataclass
+class LightGrid:
+    """The lights' supports hashed into a uniform grid of cubes of side ``cell`` from ``origin``: the lights that
+    may cover a point in cell c are ``light[start[s]:start[s + 1]]`` with s the hash of c (``_slot``). Cells that
+    share a slot share its list (the kernels test every light anyway), and no light is listed twice in a slot."""
+    origin: np.ndarray  # (3,) the corner of cell (0, 0, 0)
+    cell: float
+    dims: np.ndarray  # (3,) int64: cells along each axis; points outside them are covered by no light
+    start: np.ndarray  # (S+1,) int64, S a power of two
+    light: np.ndarray  # (E,) int64
+
+    @staticmethod
+    def build(position: np.ndarray, normal: np.ndarray, radius: np.ndarray) -> "LightGrid":
+        """The grid of lights at ``position`` (N,3) with unit ``normal`` and ``radius`` (N,)."""
+        half = radius[:, None] * (np.sqrt(np.maximum(1.0 - normal * normal, 0.0)) + SLAB * np.abs(normal))
+        half = half * (1.0 + 1e-6) + 1e-12 * np.abs(position)  # the disc's bounding box, with room for rounding
+        lo, hi = position - half, position + half
+        origin = lo.min(axis=0)
+        extent = float(np.max(hi.max(axis=0) - origin))
+        cell = max(CELL * float(np.median(radius)), 1e-9 * extent, 1e-300)
+        while np.sum(np.prod(2.0 * half / cell + 2.0, axis=1)) > LISTED * len(radius):
+            cell *= 2.0
+        first = np.floor((lo - origin) / cell).astype(np.int64)
+        span = np.floor((hi - origin) / cell).astype(np.int64) - first + 1
+        count = np.prod(span, axis=1)
+        light = np.repeat(np.arange(len(radius)), count)
+        local = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count)
+        rest, x = np.divmod(local, span[light, 0])
+        z, y = np.divmod(rest, span[light, 1])
+        slots = 1 << max(4, int(len(light) // 4).bit_length())
+        slot = _slot(first[light, 0] + x, first[light, 1] + y, first[light, 2] + z, slots - 1)
+        key = np.unique(slot * len(radius) + light)  # sorted by slot, each light once per slot
+        slot, light = np.divmod(key, len(radius))
+        start = np.searchsorted(slot, np.arange(slots + 1))
+        return LightGrid(origin, cell, np.floor((hi.max(axis=0) - origin) / cell).astype(np.int64) + 1, start,
+                         light)
+
+
+def _slot(x, y, z, mask):
+    """The hash slot of integer cell coordinates (arrays, or scalars in a kernel)."""
+    return ((x * HASH[0]) ^ (y * HASH[1]) ^ (z * HASH[2])) & mask
+
+
+_slot_compiled = kernel(_slot)
 
 
 @dataclass
@@ -44,13 +96,14 @@ class PhotonLights:
     intensity: np.ndarray  # (N,3) radiant intensity along the normal, from photon splitting
     catchment: np.ndarray | None = None  # (N,) A_j, the surface area of the light's share; None: pi r_j^2
     by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
-    neighbours: int = 8  # nearest centres examined by ``shares`` (about 3.6 cover a point at alpha = 2)
-    tree: cKDTree | None = field(default=None, repr=False)
+    grid: LightGrid | None = field(default=None, repr=False)
 
     def __post_init__(self):
-        self.position = np.asarray(self.position, np.float64)
-        if self.tree is None and len(self.position):
-            self.tree = cKDTree(self.position)
+        self.position = np.ascontiguousarray(self.position, np.float64)
+        self.normal = np.ascontiguousarray(self.normal, np.float64)
+        self.radius = np.ascontiguousarray(self.radius, np.float64)
+        if self.grid is None and len(self.position):
+            self.grid = LightGrid.build(self.position, self.normal, self.radius)
 
     def __len__(self):
         return len(self.position)
@@ -77,25 +130,20 @@ class PhotonLights:
         area = np.pi * self.radius * self.radius if self.catchment is None else self.catchment
         return np.where(area[:, None] > 0.0, self.intensity_upto(bounces) / np.maximum(area, 1e-300)[:, None], 0.0)
 
+    @property
+    def _kernel_grid(self) -> tuple:
+        """What the kernels read of the lights: the grid and the lights' centres, normals and radii."""
+        g = self.grid
+        return g.origin, g.cell, g.dims, g.start, g.light, self.position, self.normal, self.radius
+
     def shares(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Pairs (point row, light, s_j(point)): the lights whose sphere holds the point, facing its side and within
-        ``SLAB`` r_j of their tangent plane (no light reaches through a wall or floor to the surface behind it,
-        e.g. the sunlit sill outside a window), with shares 1 - (d / r_j)^2 that sum to one over each point's
+        """Pairs (point row, light, s_j(point)), by row: the lights whose sphere holds the point, facing its side and
+        within ``SLAB`` r_j of their tangent plane (no light reaches through a wall or floor to the surface behind
+        it, e.g. the sunlit sill outside a window), with shares 1 - (d / r_j)^2 that sum to one over each point's
         pairs."""
         if len(self) == 0 or len(points) == 0:
             return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros(0)
-        k = min(self.neighbours, len(self))
-        dist, light = self.tree.query(points, k=k, distance_upper_bound=float(self.radius.max()), workers=-1)
-        dist, light = dist.reshape(len(points), k), light.reshape(len(points), k)
-        found = light < len(self)
-        safe = np.where(found, light, 0)
-        off_plane = np.abs(np.einsum("ikj,ikj->ik", points[:, None, :] - self.position[safe], self.normal[safe]))
-        inside = found & (dist <= self.radius[safe]) & (np.einsum("ij,ikj->ik", normals, self.normal[safe]) > 0.0) \
-            & (off_plane <= SLAB * self.radius[safe])
-        rows, cols = np.nonzero(inside)
-        light = light[rows, cols]
-        w = np.maximum(1.0 - (dist[rows, cols] / self.radius[light]) ** 2, 1e-12)  # the rim still counts
-        return rows, light, w / np.bincount(rows, w, len(points))[rows]
+        return _share_pairs(_rows(points), _rows(normals), self._kernel_grid)
 
     def share_of(self, points: np.ndarray, normals: np.ndarray, light: np.ndarray) -> np.ndarray:
         """(P,) s_j(point) of the given light j (P,) of each point: 0 outside its sphere."""
@@ -103,14 +151,96 @@ class PhotonLights:
         return np.bincount(rows, share * (covering == light[rows]), len(points))
 
     def spread(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None,
-               groups: int = 1) -> np.ndarray:
+               groups: int = 1, pool=None, workers: int = 1) -> np.ndarray:
         """(N, groups, C): per-point values (P, C) shared among the covering lights, kept apart by ``group`` (P,)
         in [0, groups); a point no light covers adds nothing. Photon splitting (sec. 3.3) with values = the
-        photons' reflected intensities, grouped by bounce."""
-        rows, light, share = self.shares(points, normals)
-        values = np.asarray(values, np.float64)
-        slot = light * groups + (0 if group is None else np.asarray(group)[rows])
+        photons' reflected intensities, grouped by bounce. With an executor ``pool``, the points are split in
+        ``workers`` parts, each summed on its own thread."""
+        values = _rows(values)
         out = np.zeros((len(self) * groups, values.shape[1]))
-        for c in range(values.shape[1]):
-            out[:, c] = np.bincount(slot, share * values[rows, c], len(self) * groups)
+        if len(self) == 0 or len(points) == 0:
+            return out.reshape(len(self), groups, values.shape[1])
+        points, normals = _rows(points), _rows(normals)
+        group = np.zeros(len(points), np.int64) if group is None else np.ascontiguousarray(group, np.int64)
+        bounds = np.linspace(0, len(points), max(1, workers if pool is not None else 1) + 1).astype(np.int64)
+
+        def part(lo, hi):
+            summed = np.zeros_like(out)
+            _split(points[lo:hi], normals[lo:hi], values[lo:hi], group[lo:hi], groups, self._kernel_grid, summed)
+            return summed
+
+        parts = [part(bounds[0], bounds[1])] if len(bounds) == 2 else pool.map(part, bounds[:-1], bounds[1:])
+        for summed in parts:
+            out += summed
         return out.reshape(len(self), groups, values.shape[1])
+
+
+def _rows(a) -> np.ndarray:
+    """``a`` as a C-ordered float64 array (the one layout the kernels are compiled for)."""
+    return np.ascontiguousarray(a, np.float64)
+
+
+@kernel
+def _covering(p, n, grid, found, weight):
+    """How many lights cover the point ``p`` (3,) of normal ``n``; their indices and weights 1 - (d / r_j)^2 go to
+    ``found`` and ``weight``."""
+    origin, cell, dims, start, listed, position, normal, radius = grid
+    fx, fy, fz = (p[0] - origin[0]) / cell, (p[1] - origin[1]) / cell, (p[2] - origin[2]) / cell
+    if not (0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]):
+        return 0
+    s = _slot_compiled(np.int64(fx), np.int64(fy), np.int64(fz), len(start) - 2)
+    k = 0
+    for e in range(start[s], start[s + 1]):
+        j = listed[e]
+        dx, dy, dz = p[0] - position[j, 0], p[1] - position[j, 1], p[2] - position[j, 2]
+        nx, ny, nz = normal[j, 0], normal[j, 1], normal[j, 2]
+        r2 = radius[j] * radius[j]
+        d2 = dx * dx + dy * dy + dz * dz
+        if d2 <= r2 and n[0] * nx + n[1] * ny + n[2] * nz > 0.0 and \
+                abs(dx * nx + dy * ny + dz * nz) <= SLAB * radius[j]:
+            found[k] = j
+            weight[k] = max(1.0 - d2 / r2, 1e-12)  # the rim still counts
+            k += 1
+    return k
+
+
+@kernel
+def _share_pairs(points, normals, grid):
+    """``PhotonLights.shares`` of the points (P,3) with ``normals``: (rows, lights, shares)."""
+    longest = max(np.max(np.diff(grid[3])), 1)
+    found, weight = np.empty(longest, np.int64), np.empty(longest)
+    rows, light, share = np.empty(4 * len(points), np.int64), np.empty(4 * len(points), np.int64), \
+        np.empty(4 * len(points))
+    m = 0
+    for i in range(len(points)):
+        k = _covering(points[i], normals[i], grid, found, weight)
+        if m + k > len(rows):
+            rows, light, share = _grown(rows, m + k), _grown(light, m + k), _grown(share, m + k)
+        total = weight[:k].sum()
+        for q in range(k):
+            rows[m], light[m], share[m] = i, found[q], weight[q] / total
+            m += 1
+    return rows[:m].copy(), light[:m].copy(), share[:m].copy()
+
+
+@kernel
+def _grown(a, size):
+    """A copy of ``a`` with room for at least ``size`` items."""
+    b = np.empty(max(2 * len(a), size), a.dtype)
+    b[:len(a)] = a
+    return b
+
+
+@kernel
+def _split(points, normals, values, group, groups, grid, out):
+    """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``PhotonLights.spread``."""
+    longest = max(np.max(np.diff(grid[3])), 1)
+    found, weight = np.empty(longest, np.int64), np.empty(longest)
+    for i in range(len(points)):
+        k = _covering(points[i], normals[i], grid, found, weight)
+        total = weight[:k].sum()
+        for q in range(k):
+            share = weight[q] / total
+            row = found[q] * groups + group[i]
+            for c in range(values.shape[1]):
+                out[row, c] += share * values[i, c]
