@@ -3,7 +3,12 @@ plainly on small inputs: the rewrite must give the numbers the numpy passes gave
 import numpy as np
 import pytest
 
+from vpl_addon.core.tracer import Tracer
+from vpl_addon.gather import summing
 from vpl_addon.gather.bilateral import NORMAL_POWER, PLANE_SIGMA, deinterleave
+from vpl_addon.gather.summing import GatherSettings, gather
+from vpl_addon.gather.virtual_lights import VirtualLights
+from vpl_addon.materials.surface import Surface, diffuse_cosine
 
 
 def guides(h, w, seed=0):
@@ -63,3 +68,85 @@ def test_filter_keeps_pixels_without_a_surface_or_weight():
 def test_filter_of_tile_one_is_the_image():
     image = guides(5, 6)[0]
     assert deinterleave(image, *guides(5, 6)[1:], 1) is image
+
+
+def block_room():
+    """A floor with a box on it and a tilted board above: pairs of floor points and VPLs that the box hides."""
+    floor = np.array([[[-3, -3, 0], [3, -3, 0], [3, 3, 0]], [[-3, -3, 0], [3, 3, 0], [-3, 3, 0]]], float)
+    corners = np.array([[x, y, z] for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (0.0, 0.6)])
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6), (0, 2, 6),
+             (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    board = np.array([[[-2, -2, 2.0], [2, -2, 2.5], [2, 2, 2.5]], [[-2, -2, 2.0], [2, 2, 2.5], [-2, 2, 2.0]]])
+    return np.concatenate([floor, corners[np.array(faces)], board])
+
+
+def floor_points(count, rng):
+    """Points on the floor around the box, a third of them with a normal map's bent shading normal."""
+    position = np.c_[rng.uniform(-2.5, 2.5, (count, 2)), np.zeros(count)]
+    up = np.tile([0.0, 0.0, 1.0], (count, 1))
+    bent = up.copy()
+    bent[::3] += np.c_[rng.normal(0.0, 0.3, (len(bent[::3]), 2)), np.zeros(len(bent[::3]))]
+    bent /= np.linalg.norm(bent, axis=1, keepdims=True)
+    k = count
+    return Surface(position, up, bent, np.zeros(k, int), np.zeros(k, int), np.ones((k, 3)), np.ones(k), np.zeros(k),
+                   np.zeros((k, 3)), np.ones((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.ones(k), -up, up)
+
+
+def board_vpls(count, rng):
+    """VPLs under the board and on the floor (facing up: they light nothing on the floor)."""
+    position = np.c_[rng.uniform(-1.8, 1.8, (count, 2)), np.zeros(count)]
+    position[:, 2] = np.where(np.arange(count) % 5 == 0, 0.0, 2.25 + 0.125 * position[:, 0] - 1e-3)
+    normal = np.where((position[:, 2] > 0.0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0])
+    return VirtualLights(position, normal, rng.random((count, 3)), np.ones(count, np.int32),
+                         np.zeros(count, np.int8), np.arange(count))
+
+
+def pair_light(surface, vpls, tracer, d_min, i, j):
+    """The light VPL j sends to point i, from the definition (``Tracer.visible`` for V)."""
+    w = vpls.position[j] - surface.position[i]
+    d = np.linalg.norm(w)
+    w = w / d
+    cos_x = diffuse_cosine(surface.shading_normal[i:i + 1], surface.smooth_normal[i:i + 1], w[None])[0]
+    cos_v = -vpls.normal[j] @ w
+    if not (cos_x > 0.0 and cos_v > 0.0 and surface.geometric_normal[i] @ w > 0.0):
+        return np.zeros(3)
+    seen = tracer.visible(surface.position[i:i + 1], surface.geometric_normal[i:i + 1], w[None], np.array([d]),
+                          vpls.normal[j:j + 1])[0]
+    return vpls.intensity[j] * cos_x * cos_v / (np.pi * max(d * d, d_min * d_min)) * seen
+
+
+@pytest.mark.parametrize("interleave", [1, 2])
+def test_summing_gather_is_the_sum_of_its_pairs(interleave):
+    """The gather (exact, and interleaved: each point its tile position's subset, scaled to the whole set) adds up
+    the pairs' light as defined, with the box's shadows, the bump term of bent normals and the clamp."""
+    rng = np.random.default_rng(3)
+    tracer = Tracer(block_room())
+    points, vpls = floor_points(40, rng), board_vpls(30, rng)
+    xy = rng.integers(0, 8, (40, 2))
+    permutation = rng.permutation(30)
+    d_min = 2.3  # nearer than this the geometry term is clamped (the board is 2 to 2.5 above the floor)
+    out = gather(points, xy, vpls, tracer, GatherSettings(interleave=interleave), d_min, permutation)
+    expected = np.zeros((40, 3))
+    groups = interleave * interleave
+    for i in range(40):
+        g = (xy[i, 1] % interleave) * interleave + xy[i, 0] % interleave
+        subset = permutation[g::groups]
+        expected[i] = sum(pair_light(points, vpls, tracer, d_min, i, j) for j in subset) * 30 / len(subset)
+    unshadowed = gather(points, xy, vpls, Tracer(np.zeros((0, 3, 3))), GatherSettings(interleave=interleave), d_min,
+                        permutation)
+    assert (out > 0).all() and (out < unshadowed - 0.01).any(axis=1).sum() >= 3  # lit; the box shadows
+    np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-15)
+
+
+def test_pairs_sum_by_vpl_in_batches(monkeypatch):
+    """``sum_pairs`` by VPL (bidir's camera power) over batches smaller than the pairs is the pairs' sum."""
+    rng = np.random.default_rng(8)
+    tracer = Tracer(block_room())
+    points, vpls = floor_points(25, rng), board_vpls(12, rng)
+    point_index, vpl_index = rng.integers(0, 25, 200), rng.integers(0, 12, 200)
+    monkeypatch.setattr(summing, "PAIRS_PER_BATCH", 7)
+    out = summing.sum_pairs(points, point_index, vpls, vpl_index, tracer, 0.1, vpl_index, 12)
+    expected = np.zeros((12, 3))
+    for i, j in zip(point_index, vpl_index):
+        expected[j] += pair_light(points, vpls, tracer, 0.1, i, j)
+    np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-15)
