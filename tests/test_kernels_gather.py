@@ -3,12 +3,20 @@ plainly on small inputs: the rewrite must give the numbers the numpy passes gave
 import numpy as np
 import pytest
 
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.core.tracer import Tracer
 from vpl_addon.gather import summing
 from vpl_addon.gather.bilateral import NORMAL_POWER, PLANE_SIGMA, deinterleave
 from vpl_addon.gather.summing import GatherSettings, gather
 from vpl_addon.gather.virtual_lights import VirtualLights
+from vpl_addon.lights import LightSet, PointLight
+from vpl_addon.materials.microfacet import GlossyLobe
 from vpl_addon.materials.surface import Surface, diffuse_cosine
+from vpl_addon.methods.vbnl.photon_lights import PhotonLights
+from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
+from vpl_addon.methods.vbnl.virtual_light_sampling import gather as sampled_gather
+from vpl_addon.paths.gbuffer import GBuffer
 
 
 def guides(h, w, seed=0):
@@ -150,3 +158,51 @@ def test_pairs_sum_by_vpl_in_batches(monkeypatch):
     for i, j in zip(point_index, vpl_index):
         expected[j] += pair_light(points, vpls, tracer, 0.1, i, j)
     np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-15)
+
+
+def metal_plate_room():
+    """A red floor and wall, a tilted metal plate and a lamp; 3 bounces (camera paths extend twice)."""
+    floor = np.array([[[-3, -3, 0], [3, -3, 0], [3, 3, 0]], [[-3, -3, 0], [3, 3, 0], [-3, 3, 0]]], float)
+    wall = np.array([[[-3, 2, 0], [3, 2, 0], [3, 2, 4]], [[-3, 2, 0], [3, 2, 4], [-3, 2, 4]]], float)
+    plate = np.array([[[-1, -1, 0.5], [1, -1, 0.5], [1, 1, 0.8]], [[-1, -1, 0.5], [1, 1, 0.8], [-1, 1, 0.8]]])
+    materials = Materials.make([{"name": "red", "base_color": (0.8, 0.2, 0.1)},
+                                {"name": "metal", "base_color": (0.9, 0.7, 0.5), "metallic": 1.0, "roughness": 0.3}])
+    view = np.eye(4)
+    view[:3, 3] = [0.0, -1.0, 3.0]
+    camera = Camera(view, 12, 12, view_window(12, 12, orthographic=True, ortho_scale=5.0), orthographic=True,
+                    clip_start=1e-3)
+    return Scene.build(np.concatenate([floor, wall, plate]), materials,
+                       [PointLight("lamp", [0.5, 0, 2.5], [300.0] * 3)], camera, material=[0, 0, 1, 1, 2, 2],
+                       max_bounces=3)
+
+
+def grid_lights(rng):
+    """Photon lights on a grid on the floor and the wall, with random light of 1, 2 and 3 bounces."""
+    grid = np.stack(np.meshgrid(np.linspace(-2.5, 2.5, 8), np.linspace(-2.5, 1.5, 7)), -1).reshape(-1, 2)
+    on_wall = np.c_[grid[:, 0], np.full(len(grid), 2.0), grid[:, 1] + 2.5]
+    position = np.concatenate([np.c_[grid, np.zeros(len(grid))], on_wall])
+    normal = np.repeat([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0]], len(grid), axis=0)
+    by_bounce = np.cumsum(rng.random((len(position), 3, 3)), axis=1)
+    return PhotonLights(position, normal, np.full(len(position), 0.8), by_bounce[:, -1],
+                        catchment=rng.uniform(1.0, 2.0, len(position)), by_bounce=by_bounce)
+
+
+def test_sampled_gather_gives_the_light_it_gave_before_its_kernels():
+    """The photon lights' gather (light and BSDF samples with MIS, camera paths extended through the diffuse part
+    and through metal) for fixed lights, points and random numbers: the sums the numpy version gave (commit
+    cafd915), for the diffuse lobe and the metallic one."""
+    scene = metal_plate_room()
+    tracer = Tracer(scene.triangles)
+    lights = grid_lights(np.random.default_rng(2))
+    sampling = SamplingSettings(n_min=0.5, n_max=3.0)  # sparse lights: some hits extend, some do not
+    surface = GBuffer.build(scene, tracer, np.arange(144), 4, np.random.default_rng(3)).surface
+    light_set = LightSet(scene)
+    diffuse = sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 3)
+    glossy = sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 3,
+                            GlossyLobe.of(surface))
+    np.testing.assert_allclose(diffuse.sum(axis=0), [90.9044056288628, 86.59829228197091, 91.95861787751016],
+                               rtol=1e-9)
+    assert (diffuse * np.arange(len(diffuse))[:, None]).sum() == pytest.approx(40615.1167105096, rel=1e-9)
+    np.testing.assert_allclose(glossy.sum(axis=0), [0.603561517764075, 0.47104306918115146, 0.35665629849855535],
+                               rtol=1e-9)
+    assert tracer.rays_traced == 2443
