@@ -49,11 +49,6 @@ class SamplingSettings:
     n_max: float = 80.0
 
 
-def _diffuse_part(surface) -> np.ndarray:
-    """(K,) 1 where the surface has a diffuse colour: the photon lights hold only diffusely reflected light."""
-    return (surface.albedo.max(axis=1) > 0.0).astype(np.float64)
-
-
 def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, settings: SamplingSettings,
            max_depth: int, glossy: GlossyLobe | None = None) -> np.ndarray:
     """(K,3) indirect light at the points of ``surface`` from the ``PhotonLights``, one sample pair per point:
@@ -103,8 +98,9 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
     hit_light = np.full(len(at), -1)
     hit_light[light_hit] = drawn[source[light_hit]]
     direction = np.where((hit_light >= 0)[:, None], toward[source], w[source])
-    pair, light, share = lights.shares(y.position, y.shading_normal)
-    share = share * _diffuse_part(y)[pair]  # s_j(y); the lights hold no light of a pure metal
+    diffuse = np.nonzero(y.albedo.max(axis=1) > 0.0)[0]  # the lights hold no light of a pure metal: s_j(y) = 0
+    pair, light, share = lights.shares(y.position[diffuse], y.shading_normal[diffuse])
+    pair = diffuse[pair]
     mean_share = _add_samples(out, owner[source], weight, hit_light, p_light[source], pdf, direction, y.position,
                               y.shading_normal, point.position[source], pair, light, share, lights.position,
                               lights.radius, choice, radiance, density, float(settings.n_min),
@@ -198,7 +194,8 @@ def _add_samples(out, owner, weight, drawn, p_light, pdf, direction, y, normal, 
     f cos) adds s_j(y) L_j w_v f cos power_heuristic(p_light, pdf) / p_light; a hit of a BSDF sample (drawn -1,
     ``weight`` the throughput times f cos / pdf) adds weight sum_i s_i(y) L_i w_v,i power_heuristic(pdf, p_i),
     p_i the pdf of light sampling toward light i from x. The footprint a = |x - y|^2 / (pdf |cos theta_y|) (eq. 7)
-    sets w_v (eq. 9). ``pair``, ``light``, ``share``: the lights covering each hit, s_i(y) with the diffuse part."""
+    sets w_v (eq. 9). ``pair``, ``light``, ``share``: the lights covering each hit, s_i(y) (none at a hit without a
+    diffuse colour)."""
     hits = len(drawn)
     footprint = np.empty(hits)
     for h in range(hits):
