@@ -97,13 +97,10 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
         weight[light_hit] = throughput[source[light_hit]] * f_cos
     hit_light = np.full(len(at), -1)
     hit_light[light_hit] = drawn[source[light_hit]]
-    direction = np.where((hit_light >= 0)[:, None], toward[source], w[source])
-    diffuse = np.nonzero(y.albedo.max(axis=1) > 0.0)[0]  # the lights hold no light of a pure metal: s_j(y) = 0
-    pair, light, share = lights.shares(y.position[diffuse], y.shading_normal[diffuse])
-    pair = diffuse[pair]
-    mean_share = _add_samples(out, owner[source], weight, hit_light, p_light[source], pdf, direction, y.position,
-                              y.shading_normal, point.position[source], pair, light, share, lights.position,
-                              lights.radius, choice, radiance, density, float(settings.n_min),
+    pair, light, share = _covering(lights, y)
+    mean_share = _add_samples(out, owner, source, weight, hit_light, p_light, pdf, toward, w, y.position,
+                              y.shading_normal, point.position, pair, light, share, lights.position, lights.radius,
+                              choice, radiance, density, float(settings.n_min),
                               max(settings.n_max - settings.n_min, 1e-9), extend)
     if not extend:
         return []
@@ -123,6 +120,16 @@ def _light_directions(point, lights, rng, choice, cdf, total_power):
     w = uniform_cone(rng.random(k), rng.random(k), axis, 1.0 - cone)
     lit = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(point.geometric_normal, w) > 0.0))[0]
     return lit, w, j, p_light
+
+
+def _covering(lights, y):
+    """``PhotonLights.shares`` at the hits ``y`` that have a diffuse colour: the lights hold no light of a pure
+    metal (s_j(y) = 0 there)."""
+    diffuse = np.nonzero(y.albedo.max(axis=1) > 0.0)[0]
+    if len(diffuse) == len(y):
+        return lights.shares(y.position, y.shading_normal)
+    pair, light, share = lights.shares(y.position[diffuse], y.shading_normal[diffuse])
+    return diffuse[pair], light, share
 
 
 def _extended(y, rows, owner, carried, mean_share, light_set, tracer, rng, out):
@@ -185,22 +192,25 @@ def _blend_weight(footprint, density, n_min, span, extend):
 
 
 @kernel
-def _add_samples(out, owner, weight, drawn, p_light, pdf, direction, y, normal, x, pair, light, share, centre,
-                 radius, choice, radiance, density, n_min, span, extend):
+def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, normal, position, pair, light, share,
+                 centre, radius, choice, radiance, density, n_min, span, extend):
     """out[owner] += each hit's estimate; returns (H,) the mean w_v of the lights covering each BSDF sample's hit,
     by their radiance (0 where none covers it or for a light sample).
 
-    A hit of a light sample (``drawn`` its light j >= 0, p_light its pdf, ``weight`` the path's throughput times
-    f cos) adds s_j(y) L_j w_v f cos power_heuristic(p_light, pdf) / p_light; a hit of a BSDF sample (drawn -1,
-    ``weight`` the throughput times f cos / pdf) adds weight sum_i s_i(y) L_i w_v,i power_heuristic(pdf, p_i),
-    p_i the pdf of light sampling toward light i from x. The footprint a = |x - y|^2 / (pdf |cos theta_y|) (eq. 7)
-    sets w_v (eq. 9). ``pair``, ``light``, ``share``: the lights covering each hit, s_i(y) (none at a hit without a
-    diffuse colour)."""
+    Hit h came from the vertex x = position[source[h]] (owner, p_light, toward and w are per vertex). A hit of a
+    light sample (``drawn`` its light j >= 0, p_light its pdf, ``toward`` its direction, ``weight`` the path's
+    throughput times f cos) adds s_j(y) L_j w_v f cos power_heuristic(p_light, pdf) / p_light; a hit of a BSDF
+    sample (drawn -1, ``w`` its direction, ``weight`` the throughput times f cos / pdf) adds
+    weight sum_i s_i(y) L_i w_v,i power_heuristic(pdf, p_i), p_i the pdf of light sampling toward light i from x.
+    The footprint a = |x - y|^2 / (pdf |cos theta_y|) (eq. 7) sets w_v (eq. 9). ``pair``, ``light``, ``share``:
+    the lights covering each hit, s_i(y) (none at a hit without a diffuse colour)."""
     hits = len(drawn)
     footprint = np.empty(hits)
     for h in range(hits):
-        d0, d1, d2 = y[h, 0] - x[h, 0], y[h, 1] - x[h, 1], y[h, 2] - x[h, 2]
-        cos_y = normal[h, 0] * direction[h, 0] + normal[h, 1] * direction[h, 1] + normal[h, 2] * direction[h, 2]
+        s = source[h]
+        d = toward[s] if drawn[h] >= 0 else w[s]
+        d0, d1, d2 = y[h, 0] - position[s, 0], y[h, 1] - position[s, 1], y[h, 2] - position[s, 2]
+        cos_y = normal[h, 0] * d[0] + normal[h, 1] * d[1] + normal[h, 2] * d[2]
         footprint[h] = (d0 * d0 + d1 * d1 + d2 * d2) / max(pdf[h] * abs(cos_y), 1e-300)
     mine, covered, shared, estimate = np.zeros(hits), np.zeros(hits), np.zeros(hits), np.zeros((hits, 3))
     for q in range(len(pair)):
@@ -209,7 +219,8 @@ def _add_samples(out, owner, weight, drawn, p_light, pdf, direction, y, normal, 
             if i == drawn[h]:
                 mine[h] += share[q]
             continue
-        t0, t1, t2 = centre[i, 0] - x[h, 0], centre[i, 1] - x[h, 1], centre[i, 2] - x[h, 2]
+        s = source[h]
+        t0, t1, t2 = centre[i, 0] - position[s, 0], centre[i, 1] - position[s, 1], centre[i, 2] - position[s, 2]
         p_i = choice[i] / (2.0 * np.pi * _one_minus_cos_cone(radius[i], np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)))
         w_v = _blend_weight(footprint[h], density[i], n_min, span, extend)
         mis = _power_heuristic(pdf[h], p_i) * w_v
@@ -222,15 +233,15 @@ def _add_samples(out, owner, weight, drawn, p_light, pdf, direction, y, normal, 
         shared[h] += w_v * brightness
     mean_share = np.zeros(hits)
     for h in range(hits):
-        j = drawn[h]
+        j, s = drawn[h], source[h]
         if j >= 0:
-            scale = mine[h] * _power_heuristic(p_light[h], pdf[h]) * \
-                _blend_weight(footprint[h], density[j], n_min, span, extend) / p_light[h]
+            scale = mine[h] * _power_heuristic(p_light[s], pdf[h]) * \
+                _blend_weight(footprint[h], density[j], n_min, span, extend) / p_light[s]
             for c in range(3):
-                out[owner[h], c] += weight[h, c] * radiance[j, c] * scale
+                out[owner[s], c] += weight[h, c] * radiance[j, c] * scale
         else:
             if covered[h] > 0.0:
                 mean_share[h] = shared[h] / max(covered[h], 1e-300)
             for c in range(3):
-                out[owner[h], c] += weight[h, c] * estimate[h, c]
+                out[owner[s], c] += weight[h, c] * estimate[h, c]
     return mean_share
