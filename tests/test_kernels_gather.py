@@ -206,3 +206,23 @@ def test_sampled_gather_gives_the_light_it_gave_before_its_kernels():
     np.testing.assert_allclose(glossy.sum(axis=0), [0.603561517764075, 0.47104306918115146, 0.35665629849855535],
                                rtol=1e-9)
     assert tracer.rays_traced == 2443
+
+
+def test_gather_batches_hold_at_most_their_budget_of_pairs(monkeypatch):
+    """Every point meets its whole subset, no batch exceeds ``PAIRS_PER_BATCH`` pairs unless one point's subset
+    does, and the gather in small batches is the gather in one."""
+    monkeypatch.setattr(summing, "PAIRS_PER_BATCH", 10)
+    points = [np.arange(0, 7), np.arange(7, 9), np.arange(9, 12)]
+    subsets = [np.arange(3), np.arange(3, 15), np.array([15, 16])]
+    batches = list(summing._batches(points, subsets))
+    assert all(len(p) <= 10 or len(np.unique(p)) == 1 for p, _ in batches)
+    pairs = sorted(zip(*(np.concatenate(column).tolist() for column in zip(*batches))))
+    assert pairs == sorted((i, j) for pts, sub in zip(points, subsets) for i in pts for j in sub)
+    rng = np.random.default_rng(5)
+    tracer = Tracer(block_room())
+    surface, vpls = floor_points(30, rng), board_vpls(40, rng)
+    xy, permutation = rng.integers(0, 8, (30, 2)), rng.permutation(40)
+    small = gather(surface, xy, vpls, tracer, GatherSettings(), 0.1, permutation)
+    monkeypatch.setattr(summing, "PAIRS_PER_BATCH", 1 << 20)
+    np.testing.assert_allclose(small, gather(surface, xy, vpls, tracer, GatherSettings(), 0.1, permutation),
+                               rtol=1e-12)

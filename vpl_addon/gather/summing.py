@@ -155,8 +155,8 @@ def gather(surface, pixel_xy, vpls, tracer, settings: GatherSettings, d_min: flo
 
 
 def _batches(points, subsets):
-    """(point_index, vpl_index) of every point of ``points[g]`` with every VPL of ``subsets[g]``, in batches of
-    about ``PAIRS_PER_BATCH`` pairs."""
+    """(point_index, vpl_index) of every point of ``points[g]`` with every VPL of ``subsets[g]``, in batches of at
+    most ``PAIRS_PER_BATCH`` pairs (or one point's)."""
     pending, size = [], 0
     for pts, subset in zip(points, subsets):
         if len(subset) == 0:
@@ -164,10 +164,10 @@ def _batches(points, subsets):
         step = max(1, PAIRS_PER_BATCH // len(subset))
         for lo in range(0, len(pts), step):
             part = pts[lo:lo + step]
-            pending.append((np.repeat(part, len(subset)), np.tile(subset, len(part))))
-            size += len(part) * len(subset)
-            if size >= PAIRS_PER_BATCH:
+            if pending and size + len(part) * len(subset) > PAIRS_PER_BATCH:
                 yield tuple(np.concatenate(column) for column in zip(*pending))
                 pending, size = [], 0
+            pending.append((np.repeat(part, len(subset)), np.tile(subset, len(part))))
+            size += len(part) * len(subset)
     if pending:
         yield tuple(np.concatenate(column) for column in zip(*pending))
