@@ -6,38 +6,91 @@ most of them), weighting a neighbour by how well it lies on the pixel's own surf
 tangent plane (relative to the pixel's footprint on the surface) and the agreement of normals. Neighbours across
 depth or orientation discontinuities get little weight, so light does not bleed around corners (Segovia et al.
 2006; Hedman et al. 2017 sec. 4).
+
+The filter runs once per frame, after the blocks: a compiled kernel (``core.compiled``) filters bands of rows on a
+thread pool, one band per thread.
 """
 from __future__ import annotations
 
+import math
+import os
+from concurrent.futures import ThreadPoolExecutor
+
 import numpy as np
+
+from ..core.compiled import kernel
 
 PLANE_SIGMA = 2.0  # tangent-plane distance, in pixel footprints, at which a neighbour's weight falls to 1/e
 NORMAL_POWER = 16  # weight ~ (n . n')^power
+UNDERFLOW = 746.0  # exp(-x) is 0 in float64 beyond this
 
 
 def deinterleave(image: np.ndarray, position: np.ndarray, normal: np.ndarray, valid: np.ndarray,
-                 footprint: np.ndarray, tile: int) -> np.ndarray:
+                 footprint: np.ndarray, tile: int, threads: int | None = None) -> np.ndarray:
     """Filter (H,W,C) ``image`` guided by per-pixel position, normal, footprint (world size of a pixel there)
-    and validity (pixels without a surface neither give nor receive)."""
+    and validity (pixels without a surface neither give nor receive), on ``threads`` threads (None: every core)."""
     if tile <= 1:
         return image
-    h, w = image.shape[:2]
-    offsets = [(dy, dx) for dy in range(-tile, tile) for dx in range(-tile, tile)]
-    pad = ((tile, tile), (tile, tile))
+    h = image.shape[0]
+    image = np.ascontiguousarray(image, np.float64)
+    guides = (np.ascontiguousarray(position, np.float64), np.ascontiguousarray(normal, np.float64),
+              np.ascontiguousarray(valid, np.bool_), np.ascontiguousarray(footprint, np.float64))
+    out = np.empty_like(image)
+    bands = max(1, min(threads or os.cpu_count() or 1, h))
+    edges = np.linspace(0, h, bands + 1).astype(int)
 
-    def padded(a):
-        return np.pad(a, pad + ((0, 0),) * (a.ndim - 2), mode="constant")
+    def band(i):
+        _filter_rows(image, *guides, int(tile), PLANE_SIGMA, NORMAL_POWER, edges[i], edges[i + 1], out)
+    if bands == 1:
+        band(0)
+    else:
+        with ThreadPoolExecutor(bands) as pool:
+            list(pool.map(band, range(bands)))
+    return out
 
-    img_p, pos_p, nor_p, val_p = padded(image), padded(position), padded(normal), padded(valid.astype(float))
-    acc = np.zeros_like(image, dtype=np.float64)
-    wsum = np.zeros((h, w))
-    scale = np.maximum(footprint * PLANE_SIGMA, 1e-30)
-    for dy, dx in offsets:
-        sl = (slice(tile + dy, tile + dy + h), slice(tile + dx, tile + dx + w))
-        plane = np.einsum("hwc,hwc->hw", normal, pos_p[sl] - position) / scale
-        agree = np.clip(np.einsum("hwc,hwc->hw", normal, nor_p[sl]), 0.0, 1.0) ** NORMAL_POWER
-        weight = val_p[sl] * np.exp(-plane * plane) * agree
-        acc += weight[..., None] * img_p[sl]
-        wsum += weight
-    out = np.where(wsum[..., None] > 0, acc / np.maximum(wsum, 1e-300)[..., None], image)
-    return np.where(valid[..., None], out, image)
+
+@kernel
+def _power(x, n):
+    """x^n for an integer n >= 0, by squaring."""
+    result = 1.0
+    while n > 0:
+        if n & 1:
+            result *= x
+        x *= x
+        n >>= 1
+    return result
+
+
+@kernel
+def _filter_rows(image, position, normal, valid, footprint, tile, sigma, power, first, last, out):
+    """Rows [first, last) of the filtered image into ``out``: each valid pixel the weighted mean of the valid pixels
+    of its 2t x 2t window, weights exp(-(n . (x' - x) / (sigma footprint))^2) clamp(n . n', 0, 1)^power; a pixel
+    with no weight, or not valid, keeps its value."""
+    h, w, channels = image.shape
+    acc = np.empty(channels)
+    for y in range(first, last):
+        for x in range(w):
+            if not valid[y, x]:
+                out[y, x] = image[y, x]
+                continue
+            acc[:] = 0.0
+            total = 0.0
+            scale = max(footprint[y, x] * sigma, 1e-30)
+            n0, n1, n2 = normal[y, x, 0], normal[y, x, 1], normal[y, x, 2]
+            for yy in range(max(y - tile, 0), min(y + tile, h)):
+                for xx in range(max(x - tile, 0), min(x + tile, w)):
+                    if not valid[yy, xx]:
+                        continue
+                    plane = (n0 * (position[yy, xx, 0] - position[y, x, 0]) +
+                             n1 * (position[yy, xx, 1] - position[y, x, 1]) +
+                             n2 * (position[yy, xx, 2] - position[y, x, 2])) / scale
+                    agree = min(max(n0 * normal[yy, xx, 0] + n1 * normal[yy, xx, 1] + n2 * normal[yy, xx, 2], 0.0),
+                                1.0)
+                    if agree == 0.0 or plane * plane > UNDERFLOW:  # a weight of 0 either way
+                        continue
+                    weight = math.exp(-plane * plane) * _power(agree, power)
+                    for c in range(channels):
+                        acc[c] += weight * image[yy, xx, c]
+                    total += weight
+            for c in range(channels):
+                out[y, x, c] = acc[c] / total if total > 0.0 else image[y, x, c]

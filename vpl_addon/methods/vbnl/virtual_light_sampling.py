@@ -33,7 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ...core.sampling import dot, group_sum, power_heuristic, sample_cdf, uniform_cone
+from ...core.compiled import kernel
+from ...core.sampling import dot, group_sum, sample_cdf, uniform_cone
 from ...lights.direct import direct_light
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import bounce
@@ -46,26 +47,6 @@ class SamplingSettings:
     extension: bool = True  # adaptive camera path extension (eq. 6-9)
     n_min: float = 40.0
     n_max: float = 80.0
-
-
-def _one_minus_cos_cone(radius, dist):
-    """1 - cos(theta) of the cone holding a sphere of ``radius`` at ``dist``, stable for tiny spheres; 2 (the whole
-    sphere of directions) from inside."""
-    s2 = np.minimum((radius / np.maximum(dist, 1e-300)) ** 2, 1.0)
-    return np.where(dist <= radius, 2.0, s2 / (1.0 + np.sqrt(1.0 - s2)))
-
-
-def _blend_weight(footprint, density, settings, extend):
-    """w_v of eq. 9 (1 where the path may not extend)."""
-    if not extend:
-        return np.ones_like(footprint)
-    span = max(settings.n_max - settings.n_min, 1e-9)
-    return np.clip((footprint * density - settings.n_min) / span, 0.0, 1.0)
-
-
-def _diffuse_part(surface) -> np.ndarray:
-    """(K,) 1 where the surface has a diffuse colour: the photon lights hold only diffusely reflected light."""
-    return (surface.albedo.max(axis=1) > 0.0).astype(np.float64)
 
 
 def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, settings: SamplingSettings,
@@ -99,63 +80,168 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
 def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance, choice, cdf, density, total_power,
               extend):
     """Adds the light sample and the BSDF sample of the vertices ``v`` to ``out``; returns the vertices the
-    camera path continues to (eq. 6-9 for the diffuse part at each hit, always for a metallic lobe there)."""
+    camera path continues to (eq. 6-9 for the diffuse part at each hit, always for a metallic lobe there).
+
+    The rays of both samples are traced, shaded and looked up among the lights' spheres as one batch."""
     point, owner, throughput = v.point, v.owner, v.throughput
-    p, ng = point.position, point.geometric_normal
-
-    # light sample (eq. 4), weighted against the BSDF pdf of the same direction
-    if total_power > 0:
-        j = sample_cdf(cdf, rng.random(len(p)))
-        to = lights.position[j] - p
-        dist = np.linalg.norm(to, axis=1)
-        axis = to / np.maximum(dist, 1e-300)[:, None]
-        cone = _one_minus_cos_cone(lights.radius[j], dist)
-        w = uniform_cone(rng.random(len(p)), rng.random(len(p)), axis, 1.0 - cone)
-        p_light = choice[j] / (2.0 * np.pi * cone)
-        ok = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(ng, w) > 0.0))[0]
-        y, at = bounce(scene, tracer, point.take(ok), w[ok])
-        at = ok[at]
-        jj = j[at]
-        f_cos, p_bsdf = v.evaluate(w[at], at)
-        mine = lights.share_of(y.position, y.shading_normal, jj) * _diffuse_part(y)  # s_j(y)
-        to_y = y.position - p[at]
-        footprint = dot(to_y, to_y) / np.maximum(p_bsdf * np.abs(dot(y.shading_normal, w[at])), 1e-300)
-        weight = mine * power_heuristic(p_light[at], p_bsdf) * _blend_weight(footprint, density[jj], settings,
-                                                                              extend) / p_light[at]
-        out += group_sum(owner[at], throughput[at] * f_cos * radiance[jj] * weight[:, None], len(out))
-
-    # BSDF sample: every light whose sphere holds the hit point
+    lit, toward, drawn, p_light = _light_directions(point, lights, rng, choice, cdf, total_power)
     w, sampled, p_bsdf = v.sample(rng)
-    go = np.nonzero(p_bsdf > 0.0)[0]
-    y, at = bounce(scene, tracer, point.take(go), w[go])
-    at = go[at]
-    pair, light, mine = lights.shares(y.position, y.shading_normal)
-    mine = mine * _diffuse_part(y)[pair]
-    to_y = y.position - p[at]
-    footprint = dot(to_y, to_y) / np.maximum(p_bsdf[at] * np.abs(dot(y.shading_normal, w[at])), 1e-300)
-    cone = _one_minus_cos_cone(lights.radius[light], np.linalg.norm(lights.position[light] - p[at][pair], axis=1))
-    p_light = choice[light] / (2.0 * np.pi * cone)
-    w_v = _blend_weight(footprint[pair], density[light], settings, extend)
-    light_radiance = radiance[light] * mine[:, None]
-    estimate = group_sum(pair, light_radiance * (power_heuristic(p_bsdf[at][pair], p_light) * w_v)[:, None],
-                         len(at))
-    carried = throughput[at] * sampled[at]
-    out += group_sum(owner[at], carried * estimate, len(out))
+    rows = np.concatenate([lit, np.nonzero(p_bsdf > 0.0)[0]])
+    y, at = bounce(scene, tracer, point.take(rows), np.concatenate([toward[lit], w[rows[len(lit):]]]))
+    source = rows[at]  # the vertex each hit came from
+    light_hit = np.nonzero(at < len(lit))[0]
+    weight = throughput[source] * sampled[source]  # f cos / pdf for the BSDF samples
+    pdf = p_bsdf[source]
+    if len(light_hit):  # the light samples' f cos and the pdf of the BSDF sampling the same direction (MIS)
+        f_cos, pdf[light_hit] = v.evaluate(toward[source[light_hit]], source[light_hit])
+        weight[light_hit] = throughput[source[light_hit]] * f_cos
+    hit_light = np.full(len(at), -1)
+    hit_light[light_hit] = drawn[source[light_hit]]
+    pair, light, share = _covering(lights, y)
+    mean_share = _add_samples(out, owner, source, weight, hit_light, p_light, pdf, toward, w, y.position,
+                              y.shading_normal, point.position, pair, light, share, lights.position, lights.radius,
+                              choice, radiance, density, float(settings.n_min),
+                              max(settings.n_max - settings.n_min, 1e-9), extend)
     if not extend:
         return []
+    bsdf_hit = np.nonzero(hit_light < 0)[0]
+    return _extended(y, bsdf_hit, owner[source], weight, mean_share, light_set, tracer, rng, out)
 
-    # camera path extension: what the lights leave of the diffuse part, (1 - mean w_v), comes from the path
-    # continued at y; a metallic lobe at y is not in the lights at all and always continues
-    brightness = light_radiance.sum(axis=1)
-    covered = group_sum(pair, brightness[:, None], len(at))[:, 0]
-    mean_share = np.where(covered > 0.0, group_sum(pair, (w_v * brightness)[:, None], len(at))[:, 0] /
-                          np.maximum(covered, 1e-300), 0.0)
-    carry = carried * (1.0 - mean_share)[:, None] * y.albedo
+
+def _light_directions(point, lights, rng, choice, cdf, total_power):
+    """Power-based light sampling (eq. 4): per point a light j with probability P_j / sum P and a direction
+    uniform in the cone that holds its sphere. Returns (the points whose direction leaves their surface, the
+    directions, j, the pdfs p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j)))."""
+    k = len(point)
+    if total_power <= 0:
+        return np.zeros(0, np.int64), np.zeros((k, 3)), np.zeros(k, np.int64), np.zeros(k)
+    j = sample_cdf(cdf, rng.random(k))
+    axis, cone, p_light = _cones(point.position, j, lights.position, lights.radius, choice)
+    w = uniform_cone(rng.random(k), rng.random(k), axis, 1.0 - cone)
+    lit = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(point.geometric_normal, w) > 0.0))[0]
+    return lit, w, j, p_light
+
+
+def _covering(lights, y):
+    """``PhotonLights.shares`` at the hits ``y`` that have a diffuse colour: the lights hold no light of a pure
+    metal (s_j(y) = 0 there)."""
+    diffuse = np.nonzero(y.albedo.max(axis=1) > 0.0)[0]
+    if len(diffuse) == len(y):
+        return lights.shares(y.position, y.shading_normal)
+    pair, light, share = lights.shares(y.position[diffuse], y.shading_normal[diffuse])
+    return diffuse[pair], light, share
+
+
+def _extended(y, rows, owner, carried, mean_share, light_set, tracer, rng, out):
+    """Camera path extension (eq. 6-9) at the BSDF samples' hits ``rows`` of ``y`` (``owner``, ``carried`` and
+    ``mean_share`` given per hit): what the lights leave of the diffuse part, (1 - mean w_v), comes from the path
+    continued at y, its direct light added to ``out`` now (next-event estimation); a metallic lobe at y is not in
+    the lights at all and always continues. Returns the vertices of the next level."""
+    carry = carried[rows] * (1.0 - mean_share[rows])[:, None] * y.albedo[rows]
     go = np.nonzero(carry.max(axis=1) > 0.0)[0]
-    following = [PathVertices(y.take(go), owner[at][go], carry[go])]
+    following = [PathVertices(y.take(rows[go]), owner[rows[go]], carry[go])]
     out += group_sum(following[0].owner, following[0].throughput *
                      direct_light(following[0].point, light_set, tracer, 1, rng)[0], len(out))
-    shiny = np.nonzero(y.glossy)[0]
+    shiny = rows[y.glossy[rows]]
     if len(shiny):
-        following.append(at_metal(y, shiny, owner[at], carried, light_set, tracer, rng, out))
+        following.append(at_metal(y, shiny, owner, carried, light_set, tracer, rng, out))
     return following
+
+
+@kernel
+def _one_minus_cos_cone(radius, dist):
+    """1 - cos(theta) of the cone holding a sphere of ``radius`` at ``dist``, stable for tiny spheres; 2 (the whole
+    sphere of directions) from inside."""
+    if dist <= radius:
+        return 2.0
+    s2 = min((radius / max(dist, 1e-300)) ** 2, 1.0)
+    return s2 / (1.0 + np.sqrt(1.0 - s2))
+
+
+@kernel
+def _cones(position, drawn, centre, radius, choice):
+    """Per point, the cone toward its light ``drawn``: (unit axes, 1 - cos theta_j, the pdf of eq. 4 in it)."""
+    k = len(drawn)
+    axis, cone, pdf = np.empty((k, 3)), np.empty(k), np.empty(k)
+    for i in range(k):
+        j = drawn[i]
+        t0, t1, t2 = centre[j, 0] - position[i, 0], centre[j, 1] - position[i, 1], centre[j, 2] - position[i, 2]
+        dist = np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        inv = max(dist, 1e-300)
+        axis[i, 0], axis[i, 1], axis[i, 2] = t0 / inv, t1 / inv, t2 / inv
+        cone[i] = _one_minus_cos_cone(radius[j], dist)
+        pdf[i] = choice[j] / (2.0 * np.pi * cone[i])
+    return axis, cone, pdf
+
+
+@kernel
+def _power_heuristic(a, b):
+    """``core.sampling.power_heuristic`` of one pair of pdfs."""
+    if np.isnan(a):
+        return 1.0
+    a2, b2 = a * a, b * b
+    return a2 / (a2 + b2 if a2 + b2 > 0.0 else 1.0)
+
+
+@kernel
+def _blend_weight(footprint, density, n_min, span, extend):
+    """w_v of eq. 9 (1 where the path may not extend)."""
+    if not extend:
+        return 1.0
+    return min(max((footprint * density - n_min) / span, 0.0), 1.0)
+
+
+@kernel
+def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, normal, position, pair, light, share,
+                 centre, radius, choice, radiance, density, n_min, span, extend):
+    """out[owner] += each hit's estimate; returns (H,) the mean w_v of the lights covering each BSDF sample's hit,
+    by their radiance (0 where none covers it or for a light sample).
+
+    Hit h came from the vertex x = position[source[h]] (owner, p_light, toward and w are per vertex). A hit of a
+    light sample (``drawn`` its light j >= 0, p_light its pdf, ``toward`` its direction, ``weight`` the path's
+    throughput times f cos) adds s_j(y) L_j w_v f cos power_heuristic(p_light, pdf) / p_light; a hit of a BSDF
+    sample (drawn -1, ``w`` its direction, ``weight`` the throughput times f cos / pdf) adds
+    weight sum_i s_i(y) L_i w_v,i power_heuristic(pdf, p_i), p_i the pdf of light sampling toward light i from x.
+    The footprint a = |x - y|^2 / (pdf |cos theta_y|) (eq. 7) sets w_v (eq. 9). ``pair``, ``light``, ``share``:
+    the lights covering each hit, s_i(y) (none at a hit without a diffuse colour)."""
+    hits = len(drawn)
+    footprint = np.empty(hits)
+    for h in range(hits):
+        s = source[h]
+        d = toward[s] if drawn[h] >= 0 else w[s]
+        d0, d1, d2 = y[h, 0] - position[s, 0], y[h, 1] - position[s, 1], y[h, 2] - position[s, 2]
+        cos_y = normal[h, 0] * d[0] + normal[h, 1] * d[1] + normal[h, 2] * d[2]
+        footprint[h] = (d0 * d0 + d1 * d1 + d2 * d2) / max(pdf[h] * abs(cos_y), 1e-300)
+    mine, covered, shared, estimate = np.zeros(hits), np.zeros(hits), np.zeros(hits), np.zeros((hits, 3))
+    for q in range(len(pair)):
+        h, i = pair[q], light[q]
+        if drawn[h] >= 0:
+            if i == drawn[h]:
+                mine[h] += share[q]
+            continue
+        s = source[h]
+        t0, t1, t2 = centre[i, 0] - position[s, 0], centre[i, 1] - position[s, 1], centre[i, 2] - position[s, 2]
+        p_i = choice[i] / (2.0 * np.pi * _one_minus_cos_cone(radius[i], np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)))
+        w_v = _blend_weight(footprint[h], density[i], n_min, span, extend)
+        mis = _power_heuristic(pdf[h], p_i) * w_v
+        r0, r1, r2 = radiance[i, 0] * share[q], radiance[i, 1] * share[q], radiance[i, 2] * share[q]
+        estimate[h, 0] += r0 * mis
+        estimate[h, 1] += r1 * mis
+        estimate[h, 2] += r2 * mis
+        brightness = r0 + r1 + r2
+        covered[h] += brightness
+        shared[h] += w_v * brightness
+    mean_share = np.zeros(hits)
+    for h in range(hits):
+        j, s = drawn[h], source[h]
+        if j >= 0:
+            scale = mine[h] * _power_heuristic(p_light[s], pdf[h]) * \
+                _blend_weight(footprint[h], density[j], n_min, span, extend) / p_light[s]
+            for c in range(3):
+                out[owner[s], c] += weight[h, c] * radiance[j, c] * scale
+        else:
+            if covered[h] > 0.0:
+                mean_share[h] = shared[h] / max(covered[h], 1e-300)
+            for c in range(3):
+                out[owner[s], c] += weight[h, c] * estimate[h, c]
+    return mean_share

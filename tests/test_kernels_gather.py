@@ -1,0 +1,228 @@
+"""The compiled kernels of the gathers and the filter (issue 26) against the formulas they evaluate, written out
+plainly on small inputs: the rewrite must give the numbers the numpy passes gave (to rounding)."""
+import numpy as np
+import pytest
+
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.core.tracer import Tracer
+from vpl_addon.gather import summing
+from vpl_addon.gather.bilateral import NORMAL_POWER, PLANE_SIGMA, deinterleave
+from vpl_addon.gather.summing import GatherSettings, gather
+from vpl_addon.gather.virtual_lights import VirtualLights
+from vpl_addon.lights import LightSet, PointLight
+from vpl_addon.materials.microfacet import GlossyLobe
+from vpl_addon.materials.surface import Surface, diffuse_cosine
+from vpl_addon.methods.vbnl.photon_lights import PhotonLights
+from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
+from vpl_addon.methods.vbnl.virtual_light_sampling import gather as sampled_gather
+from vpl_addon.paths.gbuffer import GBuffer
+
+
+def guides(h, w, seed=0):
+    """A small G-buffer with a depth step, a turn of the surface, jittered normals and holes."""
+    rng = np.random.default_rng(seed)
+    grid = np.stack(np.meshgrid(np.arange(w), np.arange(h)) + [np.zeros((h, w))], -1)
+    position = 0.01 * grid + 0.002 * rng.normal(size=(h, w, 3))
+    position[:, w // 2:, 2] += 0.3
+    normal = rng.normal(size=(h, w, 3)) * 0.1 + [0.0, 0.0, 1.0]
+    normal[h // 3:] = [1.0, 0.0, 0.0]
+    normal /= np.linalg.norm(normal, axis=2, keepdims=True)
+    valid = rng.random((h, w)) > 0.15
+    footprint = 0.01 * (1.0 + rng.random((h, w)))
+    return rng.random((h, w, 3)), position, normal, valid, footprint
+
+
+def filtered_pixel(image, position, normal, valid, footprint, tile, y, x):
+    """One pixel of the cross-bilateral filter, straight from its definition."""
+    if not valid[y, x]:
+        return image[y, x]
+    h, w = valid.shape
+    total, acc = 0.0, np.zeros(image.shape[2])
+    for yy in range(y - tile, y + tile):
+        for xx in range(x - tile, x + tile):
+            if 0 <= yy < h and 0 <= xx < w and valid[yy, xx]:
+                plane = normal[y, x] @ (position[yy, xx] - position[y, x]) / (PLANE_SIGMA * footprint[y, x])
+                agree = np.clip(normal[y, x] @ normal[yy, xx], 0.0, 1.0) ** NORMAL_POWER
+                total += np.exp(-plane * plane) * agree
+                acc += np.exp(-plane * plane) * agree * image[yy, xx]
+    return acc / total if total > 0.0 else image[y, x]
+
+
+@pytest.mark.parametrize("threads", [1, 3])
+@pytest.mark.parametrize("tile", [2, 4])
+def test_filter_is_the_weighted_mean_of_its_window(tile, threads):
+    """Every pixel of a 13 x 17 image (bands of rows on several threads or one) is the cross-bilateral mean."""
+    inputs = guides(13, 17)
+    out = deinterleave(*inputs, tile, threads=threads)
+    expected = np.array([[filtered_pixel(*inputs, tile, y, x) for x in range(17)] for y in range(13)])
+    np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-12)
+
+
+def test_filter_keeps_pixels_without_a_surface_or_weight():
+    """Invalid pixels keep their value and give none; a pixel alone in its window keeps its own, and so does one
+    that weighs every neighbour 0 (a zero normal: its samples' normals cancelled)."""
+    image, position, normal, valid, footprint = guides(9, 9, seed=1)
+    valid[:] = False
+    valid[4, 4] = valid[0, 0] = valid[0, 1] = True
+    normal[0, 0] = 0.0
+    out = deinterleave(image, position, normal, valid, footprint, 4, threads=2)
+    np.testing.assert_array_equal(out[[0, 4], [0, 4]], image[[0, 4], [0, 4]])
+    np.testing.assert_array_equal(np.delete(out.reshape(81, 3), [0, 1, 40], axis=0),
+                                  np.delete(image.reshape(81, 3), [0, 1, 40], axis=0))
+    assert np.isfinite(out).all()
+
+
+def test_filter_of_tile_one_is_the_image():
+    image = guides(5, 6)[0]
+    assert deinterleave(image, *guides(5, 6)[1:], 1) is image
+
+
+def block_room():
+    """A floor with a box on it and a tilted board above: pairs of floor points and VPLs that the box hides."""
+    floor = np.array([[[-3, -3, 0], [3, -3, 0], [3, 3, 0]], [[-3, -3, 0], [3, 3, 0], [-3, 3, 0]]], float)
+    corners = np.array([[x, y, z] for x in (-0.3, 0.3) for y in (-0.3, 0.3) for z in (0.0, 0.6)])
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1), (2, 3, 7), (2, 7, 6), (0, 2, 6),
+             (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+    board = np.array([[[-2, -2, 2.0], [2, -2, 2.5], [2, 2, 2.5]], [[-2, -2, 2.0], [2, 2, 2.5], [-2, 2, 2.0]]])
+    return np.concatenate([floor, corners[np.array(faces)], board])
+
+
+def floor_points(count, rng):
+    """Points on the floor around the box, a third of them with a normal map's bent shading normal."""
+    position = np.c_[rng.uniform(-2.5, 2.5, (count, 2)), np.zeros(count)]
+    up = np.tile([0.0, 0.0, 1.0], (count, 1))
+    bent = up.copy()
+    bent[::3] += np.c_[rng.normal(0.0, 0.3, (len(bent[::3]), 2)), np.zeros(len(bent[::3]))]
+    bent /= np.linalg.norm(bent, axis=1, keepdims=True)
+    k = count
+    return Surface(position, up, bent, np.zeros(k, int), np.zeros(k, int), np.ones((k, 3)), np.ones(k), np.zeros(k),
+                   np.zeros((k, 3)), np.ones((k, 3)), np.zeros((k, 3)), np.zeros((k, 3)), np.ones(k), -up, up)
+
+
+def board_vpls(count, rng):
+    """VPLs under the board and on the floor (facing up: they light nothing on the floor)."""
+    position = np.c_[rng.uniform(-1.8, 1.8, (count, 2)), np.zeros(count)]
+    position[:, 2] = np.where(np.arange(count) % 5 == 0, 0.0, 2.25 + 0.125 * position[:, 0] - 1e-3)
+    normal = np.where((position[:, 2] > 0.0)[:, None], [0.0, 0.0, -1.0], [0.0, 0.0, 1.0])
+    return VirtualLights(position, normal, rng.random((count, 3)), np.ones(count, np.int32),
+                         np.zeros(count, np.int8), np.arange(count))
+
+
+def pair_light(surface, vpls, tracer, d_min, i, j):
+    """The light VPL j sends to point i, from the definition (``Tracer.visible`` for V)."""
+    w = vpls.position[j] - surface.position[i]
+    d = np.linalg.norm(w)
+    w = w / d
+    cos_x = diffuse_cosine(surface.shading_normal[i:i + 1], surface.smooth_normal[i:i + 1], w[None])[0]
+    cos_v = -vpls.normal[j] @ w
+    if not (cos_x > 0.0 and cos_v > 0.0 and surface.geometric_normal[i] @ w > 0.0):
+        return np.zeros(3)
+    seen = tracer.visible(surface.position[i:i + 1], surface.geometric_normal[i:i + 1], w[None], np.array([d]),
+                          vpls.normal[j:j + 1])[0]
+    return vpls.intensity[j] * cos_x * cos_v / (np.pi * max(d * d, d_min * d_min)) * seen
+
+
+@pytest.mark.parametrize("interleave", [1, 2])
+def test_summing_gather_is_the_sum_of_its_pairs(interleave):
+    """The gather (exact, and interleaved: each point its tile position's subset, scaled to the whole set) adds up
+    the pairs' light as defined, with the box's shadows, the bump term of bent normals and the clamp."""
+    rng = np.random.default_rng(3)
+    tracer = Tracer(block_room())
+    points, vpls = floor_points(40, rng), board_vpls(30, rng)
+    xy = rng.integers(0, 8, (40, 2))
+    permutation = rng.permutation(30)
+    d_min = 2.3  # nearer than this the geometry term is clamped (the board is 2 to 2.5 above the floor)
+    out = gather(points, xy, vpls, tracer, GatherSettings(interleave=interleave), d_min, permutation)
+    expected = np.zeros((40, 3))
+    groups = interleave * interleave
+    for i in range(40):
+        g = (xy[i, 1] % interleave) * interleave + xy[i, 0] % interleave
+        subset = permutation[g::groups]
+        expected[i] = sum(pair_light(points, vpls, tracer, d_min, i, j) for j in subset) * 30 / len(subset)
+    unshadowed = gather(points, xy, vpls, Tracer(np.zeros((0, 3, 3))), GatherSettings(interleave=interleave), d_min,
+                        permutation)
+    assert (out > 0).all() and (out < unshadowed - 0.01).any(axis=1).sum() >= 3  # lit; the box shadows
+    np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-15)
+
+
+def test_pairs_sum_by_vpl_in_batches(monkeypatch):
+    """``sum_pairs`` by VPL (bidir's camera power) over batches smaller than the pairs is the pairs' sum."""
+    rng = np.random.default_rng(8)
+    tracer = Tracer(block_room())
+    points, vpls = floor_points(25, rng), board_vpls(12, rng)
+    point_index, vpl_index = rng.integers(0, 25, 200), rng.integers(0, 12, 200)
+    monkeypatch.setattr(summing, "PAIRS_PER_BATCH", 7)
+    out = summing.sum_pairs(points, point_index, vpls, vpl_index, tracer, 0.1, vpl_index, 12)
+    expected = np.zeros((12, 3))
+    for i, j in zip(point_index, vpl_index):
+        expected[j] += pair_light(points, vpls, tracer, 0.1, i, j)
+    np.testing.assert_allclose(out, expected, rtol=1e-9, atol=1e-15)
+
+
+def metal_plate_room():
+    """A red floor and wall, a tilted metal plate and a lamp; 3 bounces (camera paths extend twice)."""
+    floor = np.array([[[-3, -3, 0], [3, -3, 0], [3, 3, 0]], [[-3, -3, 0], [3, 3, 0], [-3, 3, 0]]], float)
+    wall = np.array([[[-3, 2, 0], [3, 2, 0], [3, 2, 4]], [[-3, 2, 0], [3, 2, 4], [-3, 2, 4]]], float)
+    plate = np.array([[[-1, -1, 0.5], [1, -1, 0.5], [1, 1, 0.8]], [[-1, -1, 0.5], [1, 1, 0.8], [-1, 1, 0.8]]])
+    materials = Materials.make([{"name": "red", "base_color": (0.8, 0.2, 0.1)},
+                                {"name": "metal", "base_color": (0.9, 0.7, 0.5), "metallic": 1.0, "roughness": 0.3}])
+    view = np.eye(4)
+    view[:3, 3] = [0.0, -1.0, 3.0]
+    camera = Camera(view, 12, 12, view_window(12, 12, orthographic=True, ortho_scale=5.0), orthographic=True,
+                    clip_start=1e-3)
+    return Scene.build(np.concatenate([floor, wall, plate]), materials,
+                       [PointLight("lamp", [0.5, 0, 2.5], [300.0] * 3)], camera, material=[0, 0, 1, 1, 2, 2],
+                       max_bounces=3)
+
+
+def grid_lights(rng):
+    """Photon lights on a grid on the floor and the wall, with random light of 1, 2 and 3 bounces."""
+    grid = np.stack(np.meshgrid(np.linspace(-2.5, 2.5, 8), np.linspace(-2.5, 1.5, 7)), -1).reshape(-1, 2)
+    on_wall = np.c_[grid[:, 0], np.full(len(grid), 2.0), grid[:, 1] + 2.5]
+    position = np.concatenate([np.c_[grid, np.zeros(len(grid))], on_wall])
+    normal = np.repeat([[0.0, 0.0, 1.0], [0.0, -1.0, 0.0]], len(grid), axis=0)
+    by_bounce = np.cumsum(rng.random((len(position), 3, 3)), axis=1)
+    return PhotonLights(position, normal, np.full(len(position), 0.8), by_bounce[:, -1],
+                        catchment=rng.uniform(1.0, 2.0, len(position)), by_bounce=by_bounce)
+
+
+def test_sampled_gather_gives_the_light_it_gave_before_its_kernels():
+    """The photon lights' gather (light and BSDF samples with MIS, camera paths extended through the diffuse part
+    and through metal) for fixed lights, points and random numbers: the sums the numpy version gave (commit
+    cafd915), for the diffuse lobe and the metallic one."""
+    scene = metal_plate_room()
+    tracer = Tracer(scene.triangles)
+    lights = grid_lights(np.random.default_rng(2))
+    sampling = SamplingSettings(n_min=0.5, n_max=3.0)  # sparse lights: some hits extend, some do not
+    surface = GBuffer.build(scene, tracer, np.arange(144), 4, np.random.default_rng(3)).surface
+    light_set = LightSet(scene)
+    diffuse = sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 3)
+    glossy = sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 3,
+                            GlossyLobe.of(surface))
+    np.testing.assert_allclose(diffuse.sum(axis=0), [90.9044056288628, 86.59829228197091, 91.95861787751016],
+                               rtol=1e-9)
+    assert (diffuse * np.arange(len(diffuse))[:, None]).sum() == pytest.approx(40615.1167105096, rel=1e-9)
+    np.testing.assert_allclose(glossy.sum(axis=0), [0.603561517764075, 0.47104306918115146, 0.35665629849855535],
+                               rtol=1e-9)
+    assert tracer.rays_traced == 2443
+
+
+def test_gather_batches_hold_at_most_their_budget_of_pairs(monkeypatch):
+    """Every point meets its whole subset, no batch exceeds ``PAIRS_PER_BATCH`` pairs unless one point's subset
+    does, and the gather in small batches is the gather in one."""
+    monkeypatch.setattr(summing, "PAIRS_PER_BATCH", 10)
+    points = [np.arange(0, 7), np.arange(7, 9), np.arange(9, 12)]
+    subsets = [np.arange(3), np.arange(3, 15), np.array([15, 16])]
+    batches = list(summing._batches(points, subsets))
+    assert all(len(p) <= 10 or len(np.unique(p)) == 1 for p, _ in batches)
+    pairs = sorted(zip(*(np.concatenate(column).tolist() for column in zip(*batches))))
+    assert pairs == sorted((i, j) for pts, sub in zip(points, subsets) for i in pts for j in sub)
+    rng = np.random.default_rng(5)
+    tracer = Tracer(block_room())
+    surface, vpls = floor_points(30, rng), board_vpls(40, rng)
+    xy, permutation = rng.integers(0, 8, (30, 2)), rng.permutation(40)
+    small = gather(surface, xy, vpls, tracer, GatherSettings(), 0.1, permutation)
+    monkeypatch.setattr(summing, "PAIRS_PER_BATCH", 1 << 20)
+    np.testing.assert_allclose(small, gather(surface, xy, vpls, tracer, GatherSettings(), 0.1, permutation),
+                               rtol=1e-12)
