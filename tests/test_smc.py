@@ -11,7 +11,7 @@ from vpl_addon.methods import MethodContext, MethodSettings, smc
 from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.smc.indirect_visibility import in_view, validate
 from vpl_addon.methods.smc.knn_density import knn_density, rendering_k
-from vpl_addon.methods.smc.vpl_radiosity import estimate_radiosity, vpl_numbers
+from vpl_addon.methods.smc.vpl_radiosity import estimate_radiosity, vertex_numbers, vpl_numbers
 from vpl_addon.sequence.motion import Motion, Snapshot
 
 
@@ -53,6 +53,26 @@ def test_radiosity_with_one_vertex_is_the_direct_light_and_each_vpl_keeps_its_nu
         assert not np.array_equal(vpl_numbers(np.array([1]), 2, 2), vpl_numbers(np.array([1]), 2, 2, seed=1))
     finally:
         tracer.close()
+
+
+def _splitmix64(x):
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9 % 2**64
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EB % 2**64
+    return x ^ (x >> 31)
+
+
+def test_the_compiled_numbers_are_the_documented_hash_and_any_rows_can_be_asked_for():
+    """A VPL's number j of vertex d of path s is SplitMix64(key + ((s V + d) 8 + j) c), key = SplitMix64(seed g +
+    stream m + o), in Python integers; asking for some rows gives those rows of the full layout."""
+    seeds, samples, vertices, stream = np.array([0, 7, 2**40 + 3]), 3, 4, 5
+    full = vpl_numbers(seeds, samples, vertices, stream)
+    for i, s, d, j in [(0, 0, 0, 0), (1, 2, 3, 7), (2, 1, 2, 4)]:
+        key = _splitmix64((int(seeds[i]) * 0x9E3779B97F4A7C15 + stream * 0xC2B2AE3D27D4EB4F + 0x632BE59BD9B4E019)
+                          % 2**64)
+        bits = _splitmix64((key + ((s * vertices + d) * 8 + j) * 0xD1B54A32D192ED03) % 2**64)
+        assert full[i, s, d, j] == (bits >> 11) / 2.0**53
+    rows = vertex_numbers(seeds, np.array([2, 0, 2]), np.array([1, 2, 0]), 3, vertices, stream)
+    np.testing.assert_array_equal(rows, full[[2, 0, 2], [1, 2, 0], 3])
 
 
 def test_mailbox_validation_keeps_seen_vpls_and_finds_others_through_visible_points():

@@ -31,7 +31,7 @@ from ...gather.virtual_lights import STANDARD, VirtualLights
 from ...materials.surface import Surface, diffuse_bounce
 from ...paths.camera_points import CameraPoints
 from .indirect_visibility import validate
-from .knn_density import knn_density, knn_radius, rendering_k
+from .knn_density import knn_density, knn_radii, knn_radius, rendering_k
 from .vpl_radiosity import estimate_radiosity
 
 
@@ -119,12 +119,10 @@ def _candidates(context, s: SMCSettings, points: Surface, count: int):
     if len(hits) == 0:
         return hits, source, (np.zeros((0, 3)), np.zeros(0))
     k = min(s.resampling_k, max(len(hits) - 1, 1))
-    r = knn_radius(hits.position, hits.position, k, exclude_self=True)
-    weight = np.where(np.isfinite(r), r * r, 0.0)
     k_area = min(s.area_k, max(len(hits) - 1, 1))
-    if k_area != k:
-        r = knn_radius(hits.position, hits.position, k_area, exclude_self=True)
-    area = np.where(np.isfinite(r), np.pi * r * r / k_area, 0.0)  # 1 / (M p) per hit: the area it stands for
+    r, r_area = knn_radii(hits.position, (k, k_area))
+    weight = np.where(np.isfinite(r), r * r, 0.0)
+    area = np.where(np.isfinite(r_area), np.pi * r_area * r_area / k_area, 0.0)  # 1 / (M p) per hit: its area
     if not (weight.sum() > 0):
         weight = np.ones(len(hits))
     take = min(count, int((weight > 0).sum()))
