@@ -8,7 +8,7 @@ from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.materials.surface import Surface
 from vpl_addon.methods import MethodContext, MethodSettings, smc
-from vpl_addon.methods.smc import SMCSettings
+from vpl_addon.methods.smc import SMCSettings, warmup_rounds
 from vpl_addon.methods.smc.indirect_visibility import in_view, validate
 from vpl_addon.methods.smc.knn_density import knn_density, rendering_k
 from vpl_addon.methods.smc.vpl_radiosity import estimate_radiosity, vertex_numbers, vpl_numbers
@@ -143,3 +143,45 @@ def test_smc_lights_a_floor_off_a_wall_like_instant_radiosity():
     assert ours.mean() == pytest.approx(ir.mean(), rel=0.25)  # kNN areas at the wall's edges: some bias
     with pytest.raises(ValueError):
         SMCSettings(area="voronoi-ish")
+
+
+def test_the_warm_up_shares_its_draws_of_candidates_in_rounds():
+    """The first iteration fills the set; the other warmup - 1 share ``warmup_rounds`` draws of candidates (as
+    evenly as they go), one each at warmup_rounds >= warmup - 1 (the paper's warm-up)."""
+    assert warmup_rounds(SMCSettings()) == [1, 25, 25, 25, 24]
+    assert warmup_rounds(SMCSettings(warmup=10, warmup_rounds=4)) == [1, 3, 2, 2, 2]
+    assert warmup_rounds(SMCSettings(warmup=5, warmup_rounds=99)) == [1, 1, 1, 1, 1]
+    assert warmup_rounds(SMCSettings(warmup=1)) == [1] and warmup_rounds(SMCSettings(warmup=0)) == []
+    with pytest.raises(ValueError):
+        SMCSettings(warmup_rounds=0)
+
+
+def test_a_round_moves_at_most_m_max_vpls_an_iteration_and_ends_when_nothing_moves(monkeypatch):
+    """Each iteration of a warm-up round replaces at most M_max VPLs, each from the round's candidates that no
+    earlier iteration took; the round stops at the first iteration that moves nothing."""
+    settings = MethodSettings(vpls=64, smc=SMCSettings(warmup=41, warmup_rounds=2, radiosity_samples=4,
+                                                       camera_points=256, replacements=3))
+    scene = lamp_scene()
+    tracer = Tracer(scene.triangles)
+    rounds = {}  # the pool of each round -> what each of its steps did
+    original = smc._step
+
+    def step(state, context, settings, pool, *args):
+        before, offered = set(state.seed.tolist()), set(pool.seed.tolist())
+        out = original(state, context, settings, pool, *args)
+        new = set(state.seed.tolist()) - before
+        assert new <= offered and not new & set(pool.seed.tolist())  # taken from the pool, and out of it
+        rounds.setdefault(id(pool), []).append(None if out is None else len(new) if before else -1)
+        return out
+    monkeypatch.setattr(smc, "_step", step)
+    try:
+        state = smc.start(None, settings)
+        lights, info = smc.advance(state, _context(scene, tracer), settings, Motion(first=True))
+        assert len(lights) == 64 and info["iterations"] == 42 and len(set(state.seed.tolist())) == 64
+        fill, *warm, frame = rounds.values()
+        assert fill == [-1] and len(warm) == 2 and len(frame) == 1
+        for moves in warm:
+            assert 1 <= len(moves) <= 20 and all(0 < m <= 3 for m in moves[:-1])
+        assert any(m is None for moves in warm for m in moves)  # a round that ended early
+    finally:
+        tracer.close()
