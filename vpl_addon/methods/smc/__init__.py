@@ -15,19 +15,21 @@ One frame is Algorithm 1 (sec. 3.2):
   13-17. At most M_max of INVALID are removed; the strongest candidates fill the budget I.
   18-19. Radiosities (only when the lights, geometry or shading changed: per-VPL seeds make the estimate of an
      unchanged VPL in an unchanged scene the same) and densities with k = max(1, floor(sqrt(I) / 32)) (eq. 8).
-The state starts empty; the first frame runs ``warmup`` (100) iterations of the algorithm before it renders, so a
-chunk of a sequence can start cold anywhere. Not in the paper: the warm-up's iterations after the first (which fills
-the empty set) share ``warmup_rounds`` (4) draws of candidates (lines 3-7: points, INVALID, candidates, radiosities,
-the cost of an iteration), each iteration of a round taking its winners out of the round's candidates; a round ends
-early at an iteration that moves no VPL (the next ones on the same candidates would not either). The paper's warm-up
-is ``warmup_rounds = warmup - 1``. Nothing moves during a warm-up, so a draw's candidates stay as good a sample of the
-indirectly visible surfaces for its iterations; what is lost is the fresh noise of each iteration's draw (and the
-"voronoi" areas below average the hits of each draw once). The first iteration takes every candidate into the empty
-set, so it estimates no radiosity for choosing them. A VPL's intensity for the gather is Lo(y) / (I p(y)) =
-Lo(y) pi r_k^2 / k: its outgoing radiance times the area it stands for.
+The state starts empty; the first frame runs ``warmup`` (100) iterations of the algorithm before its own, so a
+chunk of a sequence can start cold anywhere. Not in the paper: the iterations of a cold start after the first (which
+fills the empty set), the frame's own included, share ``warmup_rounds`` (4) draws of candidates (lines 3-7: points,
+INVALID, candidates, radiosities, the cost of an iteration), each iteration of a round taking its winners out of the
+round's candidates; a round ends early at an iteration that moves no VPL (the next ones on the same candidates would
+not either). The paper's cold start is ``warmup_rounds = warmup``. Nothing moves during a cold start, so a draw's
+candidates stay as good a sample of the indirectly visible surfaces for its iterations; what is lost is the fresh
+noise of each iteration's draw (and the "voronoi" areas below average the hits of each draw once). The first
+iteration takes every candidate into the empty set, so it estimates no radiosity for choosing them. Radiosities are
+estimated in blocks on the tracer's threads. A VPL's intensity for the gather is Lo(y) / (I p(y)) = Lo(y) pi r_k^2 / k:
+its outgoing radiance times the area it stands for.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -43,6 +45,7 @@ from .vpl_radiosity import estimate_radiosity
 
 
 SELECTION, RENDERING = 0, 1  # the two random streams of a VPL's radiosity paths
+RADIOSITY_BLOCK = 1024  # VPLs per batch of radiosity paths, the batches shared among the tracer's threads
 # A VPL keeps its slot in the set while it lives (a new one takes the slot of the one it replaces), so the sequence
 # keeps the gather's order of the slots from frame to frame: each VPL stays in its interleaving subset.
 STABLE_LIGHTS = True
@@ -128,7 +131,7 @@ def _candidates(context, s: SMCSettings, points: Surface, count: int):
         return hits, source, (np.zeros((0, 3)), np.zeros(0))
     k = min(s.resampling_k, max(len(hits) - 1, 1))
     k_area = min(s.area_k, max(len(hits) - 1, 1))
-    r, r_area = knn_radii(hits.position, (k, k_area))
+    r, r_area = knn_radii(hits.position, (k, k_area), context.tracer.threads)
     weight = np.where(np.isfinite(r), r * r, 0.0)
     area = np.where(np.isfinite(r_area), np.pi * r_area * r_area / k_area, 0.0)  # 1 / (M p) per hit: its area
     if not (weight.sum() > 0):
@@ -176,22 +179,32 @@ def iterate(state: SMCState, context, settings, motion=None, steps: int = 1) -> 
             break
         valid = moved
     if s.area == "voronoi" and len(state) and len(covered[0]):
-        _voronoi(state, s, covered)
+        _voronoi(state, s, covered, context.tracer.threads)
     state.iterations += steps
 
 
-def _voronoi(state: SMCState, s: SMCSettings, covered) -> None:
+def _voronoi(state: SMCState, s: SMCSettings, covered, workers: int) -> None:
     """The "voronoi" areas: each hit gives the area it stands for to its nearest VPL, a running mean over
     ``area_frames`` rounds."""
-    _, nearest = cKDTree(state.surface.position).query(covered[0])
+    _, nearest = cKDTree(state.surface.position).query(covered[0], workers=workers)
     share = np.bincount(nearest, weights=covered[1], minlength=len(state))
     state.area_count += 1
     state.area += (share - state.area) / np.minimum(state.area_count, s.area_frames)
 
 
 def _radiosity(context, s: SMCSettings, surface: Surface, seeds, stream) -> np.ndarray:
-    return estimate_radiosity(context.scene, context.tracer, context.lights, surface, seeds, s.radiosity_samples,
-                              max(1, context.max_bounces), stream)
+    """Lines 7 and 18: ``estimate_radiosity`` in blocks of RADIOSITY_BLOCK VPLs on the tracer's threads (a VPL's
+    estimate does not depend on the others in its batch; fixed blocks keep the batches, so the threads do not change
+    the estimates)."""
+    def block(lo):
+        rows = slice(lo, lo + RADIOSITY_BLOCK)
+        return estimate_radiosity(context.scene, context.tracer, context.lights, surface.take(rows), seeds[rows],
+                                  s.radiosity_samples, max(1, context.max_bounces), stream)
+    starts = range(0, len(surface), RADIOSITY_BLOCK)
+    if len(starts) < 2 or context.tracer.threads < 2:
+        return np.concatenate([np.zeros((0, 3)), *map(block, starts)])
+    with ThreadPoolExecutor(min(context.tracer.threads, len(starts))) as pool:
+        return np.concatenate(list(pool.map(block, starts)))
 
 
 def _verified(state: SMCState, context, s: SMCSettings, points: Surface, motion, extent: float) -> np.ndarray:
@@ -292,7 +305,7 @@ def start(context, settings) -> SMCState:
 
 
 def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, dict]:
-    """The frame's VPLs: after a cold start ``warmup`` iterations first, then this frame's iteration."""
+    """The frame's VPLs: this frame's iteration, after a cold start the last of ``warmup`` + 1 (``warmup_rounds``)."""
     rays0 = context.tracer.rays_traced
     if state.iterations and motion is not None and motion.static():  # nothing moved: the same VPLs, no rays
         lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
@@ -300,11 +313,9 @@ def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, 
                         "sampling_rays": 0, "reused": True}
     if motion is None or motion.first or motion.lights_changed or motion.geometry_changed or motion.shading_changed:
         state.stale_radiosity = True
-    moved = len(state)
-    for steps in warmup_rounds(settings.smc) if state.iterations == 0 else ():
+    moved, before = len(state), set(state.seed.tolist())
+    for steps in warmup_rounds(settings.smc) if state.iterations == 0 else [1]:
         iterate(state, context, settings, motion, steps)
-    before = set(state.seed.tolist())
-    iterate(state, context, settings, motion)
     replaced = len(set(state.seed.tolist()) - before)
     lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
     return lights, {"vpls": len(lights), "replaced": replaced if moved else len(lights), "light_paths": 0,
@@ -312,11 +323,11 @@ def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, 
 
 
 def warmup_rounds(s: SMCSettings) -> list[int]:
-    """The steps of each round of a cold start's ``warmup`` iterations: one that fills the empty set, then the
-    others split as evenly as they go into at most ``s.warmup_rounds`` rounds."""
-    rest = max(s.warmup - 1, 0)
-    rounds = min(s.warmup_rounds, rest)
-    return [1] * min(s.warmup, 1) + [rest // rounds + (i < rest % rounds) for i in range(rounds)]
+    """The iterations of each round of a cold start: one that fills the empty set, then the ``warmup`` others, the
+    frame's own the last, split as evenly as they go into at most ``s.warmup_rounds`` rounds. Nothing moves between
+    them, so the frame's iteration is a warm-up iteration like the others."""
+    rounds = min(s.warmup_rounds, s.warmup)
+    return [1] + [s.warmup // rounds + (i < s.warmup % rounds) for i in range(rounds)]
 
 
 def as_virtual_lights(state: SMCState, budget: int, settings_area: str = "voronoi") -> VirtualLights:

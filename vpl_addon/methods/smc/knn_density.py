@@ -31,12 +31,13 @@ def knn_radius(points: np.ndarray, among: np.ndarray, k: int, exclude_self: bool
     return dist if dist.ndim == 1 else dist[:, -1]
 
 
-def knn_radii(points: np.ndarray, ks: tuple[int, ...]) -> tuple[np.ndarray, ...]:
-    """``knn_radius(points, points, k, exclude_self=True)`` for each k of ``ks``, from one query of the largest."""
+def knn_radii(points: np.ndarray, ks: tuple[int, ...], workers: int = 1) -> tuple[np.ndarray, ...]:
+    """``knn_radius(points, points, k, exclude_self=True)`` for each k of ``ks``, from one query of the largest (on
+    ``workers`` threads)."""
     points = np.asarray(points, np.float64)
     if len(points) <= max(ks):
         return tuple(knn_radius(points, points, k, exclude_self=True) for k in ks)
-    dist, _ = cKDTree(points).query(points, k=max(ks) + 1)
+    dist, _ = cKDTree(points).query(points, k=max(ks) + 1, workers=workers)
     return tuple(dist[:, k] for k in ks)
 
 
