@@ -148,11 +148,26 @@ class _Pool:
     mailbox: tuple[np.ndarray, np.ndarray]  # the directly visible point each came from, and its normal
     seed: np.ndarray
     radiosity: np.ndarray  # from the SELECTION stream
+    rendering: np.ndarray | None = None  # from the RENDERING stream, NaN where not estimated yet
+
+    def __post_init__(self):
+        self.rendering = np.full((len(self.seed), 3), np.nan)
 
     def remove(self, rows) -> None:
         keep = np.setdiff1d(np.arange(len(self.seed)), rows)
         self.surface, self.seed, self.radiosity = self.surface.take(keep), self.seed[keep], self.radiosity[keep]
-        self.mailbox = (self.mailbox[0][keep], self.mailbox[1][keep])
+        self.rendering, self.mailbox = self.rendering[keep], (self.mailbox[0][keep], self.mailbox[1][keep])
+
+    def rendering_radiosity(self, context, s: SMCSettings, rows: np.ndarray, strength: np.ndarray) -> np.ndarray:
+        """The RENDERING radiosities of the candidates ``rows``, the strongest by ``strength`` among them: those
+        not estimated yet are, with the next strongest up to 4 M_max (the next iterations' likely winners), in one
+        batch (a VPL's estimate does not depend on its batch)."""
+        missing = np.isnan(self.rendering[rows, 0])
+        if missing.any():
+            todo = np.nonzero(np.isnan(self.rendering[:, 0]))[0]
+            todo = todo[np.argsort(-strength[todo], kind="stable")[:max(int(missing.sum()), 4 * s.replacements)]]
+            self.rendering[todo] = _radiosity(context, s, self.surface.take(todo), self.seed[todo], RENDERING)
+        return self.rendering[rows]
 
 
 def iterate(state: SMCState, context, settings, motion=None, steps: int = 1) -> None:
@@ -245,7 +260,7 @@ def _step(state: SMCState, context, settings, pool: _Pool, valid: np.ndarray, ex
     room = budget - len(state)
     if room > 0 and len(pool.seed):
         best = np.argsort(-strength, kind="stable")[:room]
-        _admit(state, context, s, pool, best, strength[best])
+        _admit(state, context, s, pool, best, strength)
         valid = np.concatenate([valid, np.ones(len(best), bool)])
         pool.remove(best)
         if len(leave) and len(best) >= len(leave):  # new VPLs take the slots of those they replace
@@ -276,17 +291,18 @@ def _leaving(state: SMCState, valid: np.ndarray, strength: np.ndarray, s: SMCSet
 
 
 def _admit(state: SMCState, context, s: SMCSettings, pool: _Pool, best: np.ndarray, strength: np.ndarray):
-    """Lines 14-17: the candidates ``best`` join the set (at its end)."""
+    """Lines 14-17: the candidates ``best``, the strongest by ``strength`` (of every candidate of the pool), join
+    the set (at its end)."""
     new = pool.surface.take(best)
     state.surface = new if state.surface is None else Surface.concat([state.surface, new])
     # the radiosity that lights the image comes from the VPL's other stream: the one it was chosen by is biased
     # upward by the choice (a candidate wins on a lucky estimate); estimated at line 18 if all are stale
     state.radiosity = np.concatenate([state.radiosity, np.zeros((len(best), 3)) if state.stale_radiosity else
-                                      _radiosity(context, s, new, pool.seed[best], RENDERING)])
+                                      pool.rendering_radiosity(context, s, best, strength)])
     state.seed = np.concatenate([state.seed, pool.seed[best]])
     state.mailbox = (np.concatenate([state.mailbox[0], pool.mailbox[0][best]]),
                      np.concatenate([state.mailbox[1], pool.mailbox[1][best]]))
-    state.strength = np.concatenate([state.strength, strength])
+    state.strength = np.concatenate([state.strength, strength[best]])
     state.area = np.concatenate([state.area, np.zeros(len(best))])
     state.area_count = np.concatenate([state.area_count, np.zeros(len(best), np.int64)])
 
