@@ -163,7 +163,7 @@ def test_a_round_moves_at_most_m_max_vpls_an_iteration_and_ends_when_nothing_mov
                                                        camera_points=256, replacements=3))
     scene = lamp_scene()
     tracer = Tracer(scene.triangles)
-    rounds = {}  # the pool of each round -> what each of its steps did
+    pools, rounds = [], []  # the pool of each round (kept alive), what each of its steps did
     original = smc._step
 
     def step(state, context, settings, pool, *args):
@@ -171,14 +171,17 @@ def test_a_round_moves_at_most_m_max_vpls_an_iteration_and_ends_when_nothing_mov
         out = original(state, context, settings, pool, *args)
         new = set(state.seed.tolist()) - before
         assert new <= offered and not new & set(pool.seed.tolist())  # taken from the pool, and out of it
-        rounds.setdefault(id(pool), []).append(None if out is None else len(new) if before else -1)
+        if not pools or pools[-1] is not pool:
+            pools.append(pool)
+            rounds.append([])
+        rounds[-1].append(None if out is None else len(new) if before else -1)
         return out
     monkeypatch.setattr(smc, "_step", step)
     try:
         state = smc.start(None, settings)
         lights, info = smc.advance(state, _context(scene, tracer), settings, Motion(first=True))
         assert len(lights) == 64 and info["iterations"] == 42 and len(set(state.seed.tolist())) == 64
-        fill, *warm = rounds.values()
+        fill, *warm = rounds
         assert fill == [-1] and len(warm) == 2
         for moves in warm:
             assert 1 <= len(moves) <= 21 and all(0 < m <= 3 for m in moves[:-1])
