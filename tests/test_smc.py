@@ -8,10 +8,10 @@ from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.materials.surface import Surface
 from vpl_addon.methods import MethodContext, MethodSettings, smc
-from vpl_addon.methods.smc import SMCSettings
+from vpl_addon.methods.smc import SMCSettings, warmup_rounds
 from vpl_addon.methods.smc.indirect_visibility import in_view, validate
 from vpl_addon.methods.smc.knn_density import knn_density, rendering_k
-from vpl_addon.methods.smc.vpl_radiosity import estimate_radiosity, vpl_numbers
+from vpl_addon.methods.smc.vpl_radiosity import estimate_radiosity, vertex_numbers, vpl_numbers
 from vpl_addon.sequence.motion import Motion, Snapshot
 
 
@@ -53,6 +53,26 @@ def test_radiosity_with_one_vertex_is_the_direct_light_and_each_vpl_keeps_its_nu
         assert not np.array_equal(vpl_numbers(np.array([1]), 2, 2), vpl_numbers(np.array([1]), 2, 2, seed=1))
     finally:
         tracer.close()
+
+
+def _splitmix64(x):
+    x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9 % 2**64
+    x = (x ^ (x >> 27)) * 0x94D049BB133111EB % 2**64
+    return x ^ (x >> 31)
+
+
+def test_the_compiled_numbers_are_the_documented_hash_and_any_rows_can_be_asked_for():
+    """A VPL's number j of vertex d of path s is SplitMix64(key + ((s V + d) 8 + j) c), key = SplitMix64(seed g +
+    stream m + o), in Python integers; asking for some rows gives those rows of the full layout."""
+    seeds, samples, vertices, stream = np.array([0, 7, 2**40 + 3]), 3, 4, 5
+    full = vpl_numbers(seeds, samples, vertices, stream)
+    for i, s, d, j in [(0, 0, 0, 0), (1, 2, 3, 7), (2, 1, 2, 4)]:
+        key = _splitmix64((int(seeds[i]) * 0x9E3779B97F4A7C15 + stream * 0xC2B2AE3D27D4EB4F + 0x632BE59BD9B4E019)
+                          % 2**64)
+        bits = _splitmix64((key + ((s * vertices + d) * 8 + j) * 0xD1B54A32D192ED03) % 2**64)
+        assert full[i, s, d, j] == (bits >> 11) / 2.0**53
+    rows = vertex_numbers(seeds, np.array([2, 0, 2]), np.array([1, 2, 0]), 3, vertices, stream)
+    np.testing.assert_array_equal(rows, full[[2, 0, 2], [1, 2, 0], 3])
 
 
 def test_mailbox_validation_keeps_seen_vpls_and_finds_others_through_visible_points():
@@ -123,3 +143,48 @@ def test_smc_lights_a_floor_off_a_wall_like_instant_radiosity():
     assert ours.mean() == pytest.approx(ir.mean(), rel=0.25)  # kNN areas at the wall's edges: some bias
     with pytest.raises(ValueError):
         SMCSettings(area="voronoi-ish")
+
+
+def test_the_warm_up_shares_its_draws_of_candidates_in_rounds():
+    """A cold start's first iteration fills the set; the warmup others and the frame's share ``warmup_rounds`` draws
+    of candidates (as evenly as they go), one each at warmup_rounds >= warmup (the paper's cold start)."""
+    assert warmup_rounds(SMCSettings()) == [1, 25, 25, 25, 25]
+    assert warmup_rounds(SMCSettings(warmup=10, warmup_rounds=4)) == [1, 3, 3, 2, 2]
+    assert warmup_rounds(SMCSettings(warmup=4, warmup_rounds=99)) == [1, 1, 1, 1, 1]
+    assert warmup_rounds(SMCSettings(warmup=1)) == [1, 1] and warmup_rounds(SMCSettings(warmup=0)) == [1]
+    with pytest.raises(ValueError):
+        SMCSettings(warmup_rounds=0)
+
+
+def test_a_round_moves_at_most_m_max_vpls_an_iteration_and_ends_when_nothing_moves(monkeypatch):
+    """Each iteration of a warm-up round replaces at most M_max VPLs, each from the round's candidates that no
+    earlier iteration took; the round stops at the first iteration that moves nothing."""
+    settings = MethodSettings(vpls=64, smc=SMCSettings(warmup=41, warmup_rounds=2, radiosity_samples=4,
+                                                       camera_points=256, replacements=3))
+    scene = lamp_scene()
+    tracer = Tracer(scene.triangles)
+    pools, rounds = [], []  # the pool of each round (kept alive), what each of its steps did
+    original = smc._step
+
+    def step(state, context, settings, pool, *args):
+        before, offered = set(state.seed.tolist()), set(pool.seed.tolist())
+        out = original(state, context, settings, pool, *args)
+        new = set(state.seed.tolist()) - before
+        assert new <= offered and not new & set(pool.seed.tolist())  # taken from the pool, and out of it
+        if not pools or pools[-1] is not pool:
+            pools.append(pool)
+            rounds.append([])
+        rounds[-1].append(None if out is None else len(new) if before else -1)
+        return out
+    monkeypatch.setattr(smc, "_step", step)
+    try:
+        state = smc.start(None, settings)
+        lights, info = smc.advance(state, _context(scene, tracer), settings, Motion(first=True))
+        assert len(lights) == 64 and info["iterations"] == 42 and len(set(state.seed.tolist())) == 64
+        fill, *warm = rounds
+        assert fill == [-1] and len(warm) == 2
+        for moves in warm:
+            assert 1 <= len(moves) <= 21 and all(0 < m <= 3 for m in moves[:-1])
+        assert any(m is None for moves in warm for m in moves)  # a round that ended early
+    finally:
+        tracer.close()

@@ -15,12 +15,21 @@ One frame is Algorithm 1 (sec. 3.2):
   13-17. At most M_max of INVALID are removed; the strongest candidates fill the budget I.
   18-19. Radiosities (only when the lights, geometry or shading changed: per-VPL seeds make the estimate of an
      unchanged VPL in an unchanged scene the same) and densities with k = max(1, floor(sqrt(I) / 32)) (eq. 8).
-The state starts empty; the first frame runs ``warmup`` (100) iterations of the algorithm before it renders, so a
-chunk of a sequence can start cold anywhere. A VPL's intensity for the gather is Lo(y) / (I p(y)) = Lo(y) pi r_k^2
-/ k: its outgoing radiance times the area it stands for.
+The state starts empty; the first frame runs ``warmup`` (100) iterations of the algorithm before its own, so a
+chunk of a sequence can start cold anywhere. Not in the paper: the iterations of a cold start after the first (which
+fills the empty set), the frame's own included, share ``warmup_rounds`` (4) draws of candidates (lines 3-7: points,
+INVALID, candidates, radiosities, the cost of an iteration), each iteration of a round taking its winners out of the
+round's candidates; a round ends early at an iteration that moves no VPL (the next ones on the same candidates would
+not either). The paper's cold start is ``warmup_rounds = warmup``. Nothing moves during a cold start, so a draw's
+candidates stay as good a sample of the indirectly visible surfaces for its iterations; what is lost is the fresh
+noise of each iteration's draw (and the "voronoi" areas below average the hits of each draw once). The first
+iteration takes every candidate into the empty set, so it estimates no radiosity for choosing them. Radiosities are
+estimated in blocks on the tracer's threads. A VPL's intensity for the gather is Lo(y) / (I p(y)) = Lo(y) pi r_k^2 / k:
+its outgoing radiance times the area it stands for.
 """
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,11 +40,12 @@ from ...gather.virtual_lights import STANDARD, VirtualLights
 from ...materials.surface import Surface, diffuse_bounce
 from ...paths.camera_points import CameraPoints
 from .indirect_visibility import validate
-from .knn_density import knn_density, knn_radius, rendering_k
+from .knn_density import knn_density, knn_radii, knn_radius, rendering_k
 from .vpl_radiosity import estimate_radiosity
 
 
 SELECTION, RENDERING = 0, 1  # the two random streams of a VPL's radiosity paths
+RADIOSITY_BLOCK = 1024  # VPLs per batch of radiosity paths, the batches shared among the tracer's threads
 # A VPL keeps its slot in the set while it lives (a new one takes the slot of the one it replaces), so the sequence
 # keeps the gather's order of the slots from frame to frame: each VPL stays in its interleaving subset.
 STABLE_LIGHTS = True
@@ -50,6 +60,7 @@ class SMCSettings:
     radiosity_samples: int = 16  # paths with next-event estimation per VPL radiosity
     percentile: float = 95.0  # eq. 9: candidates stronger than this percentile of the VPLs count as M_strong
     warmup: int = 100  # iterations of the algorithm before the first frame of a cold start
+    warmup_rounds: int = 4  # draws of candidates that the warm-up's iterations share (not in the paper)
     camera_points: int = 1024  # |X|: directly visible points per frame (the paper uses every pixel)
     resampling_k: int = 8  # neighbours for the density of the intersection points (the paper does not say)
     density_k: int = 0  # k of the densities for rendering; 0: eq. 8, max(1, floor(sqrt(I) / 32))
@@ -66,7 +77,7 @@ class SMCSettings:
 
     def __post_init__(self):
         for name in ("replacements", "candidate_ratio", "radiosity_samples", "camera_points", "resampling_k",
-                     "area_k", "area_frames"):
+                     "area_k", "area_frames", "warmup_rounds"):
             if getattr(self, name) < 1:
                 raise ValueError(f"smc {name.replace('_', ' ')} must be at least 1 (got {getattr(self, name)})")
         if self.warmup < 0 or self.visibility_rays < 0 or self.visibility_iterations < 0:
@@ -119,12 +130,10 @@ def _candidates(context, s: SMCSettings, points: Surface, count: int):
     if len(hits) == 0:
         return hits, source, (np.zeros((0, 3)), np.zeros(0))
     k = min(s.resampling_k, max(len(hits) - 1, 1))
-    r = knn_radius(hits.position, hits.position, k, exclude_self=True)
-    weight = np.where(np.isfinite(r), r * r, 0.0)
     k_area = min(s.area_k, max(len(hits) - 1, 1))
-    if k_area != k:
-        r = knn_radius(hits.position, hits.position, k_area, exclude_self=True)
-    area = np.where(np.isfinite(r), np.pi * r * r / k_area, 0.0)  # 1 / (M p) per hit: the area it stands for
+    r, r_area = knn_radii(hits.position, (k, k_area), context.tracer.threads)
+    weight = np.where(np.isfinite(r), r * r, 0.0)
+    area = np.where(np.isfinite(r_area), np.pi * r_area * r_area / k_area, 0.0)  # 1 / (M p) per hit: its area
     if not (weight.sum() > 0):
         weight = np.ones(len(hits))
     take = min(count, int((weight > 0).sum()))
@@ -132,96 +141,179 @@ def _candidates(context, s: SMCSettings, points: Surface, count: int):
     return hits.take(chosen), origins[source[chosen]], (hits.position, area)
 
 
-def iterate(state: SMCState, context, settings, motion=None) -> None:
-    """One pass of Algorithm 1 (lines 3-19) over ``state``."""
+@dataclass
+class _Pool:
+    """A round's candidates (lines 5-7) that no step has taken yet."""
+    surface: Surface
+    mailbox: tuple[np.ndarray, np.ndarray]  # the directly visible point each came from, and its normal
+    seed: np.ndarray
+    radiosity: np.ndarray  # from the SELECTION stream
+    rendering: np.ndarray | None = None  # from the RENDERING stream, NaN where not estimated yet
+
+    def __post_init__(self):
+        self.rendering = np.full((len(self.seed), 3), np.nan)
+
+    def remove(self, rows) -> None:
+        keep = np.setdiff1d(np.arange(len(self.seed)), rows)
+        self.surface, self.seed, self.radiosity = self.surface.take(keep), self.seed[keep], self.radiosity[keep]
+        self.rendering, self.mailbox = self.rendering[keep], (self.mailbox[0][keep], self.mailbox[1][keep])
+
+    def rendering_radiosity(self, context, s: SMCSettings, rows: np.ndarray, strength: np.ndarray) -> np.ndarray:
+        """The RENDERING radiosities of the candidates ``rows``, the strongest by ``strength`` among them: those
+        not estimated yet are, with the next strongest up to 4 M_max (the next iterations' likely winners), in one
+        batch (a VPL's estimate does not depend on its batch)."""
+        missing = np.isnan(self.rendering[rows, 0])
+        if missing.any():
+            todo = np.nonzero(np.isnan(self.rendering[:, 0]))[0]
+            todo = todo[np.argsort(-strength[todo], kind="stable")[:max(int(missing.sum()), 4 * s.replacements)]]
+            self.rendering[todo] = _radiosity(context, s, self.surface.take(todo), self.seed[todo], RENDERING)
+        return self.rendering[rows]
+
+
+def iterate(state: SMCState, context, settings, motion=None, steps: int = 1) -> None:
+    """Algorithm 1 over ``state``: lines 3-7 (directly visible points X, INVALID, candidates and their radiosities)
+    once, then lines 8-19 ``steps`` times on those candidates, each step taking its winners out of them. One step
+    is one frame of the paper; a warm-up round takes several (``SMCSettings.warmup_rounds``)."""
     s: SMCSettings = settings.smc
     budget = max(1, int(settings.vpls))
-    scene, tracer, lights, rng = context.scene, context.tracer, context.lights, context.rng
-    bounces = max(1, context.max_bounces)
+    scene, rng = context.scene, context.rng
     extent = float(np.linalg.norm(np.subtract(*scene.bounds)))
-    floor = 1e-6 * max(extent, 1e-12)
-    points = CameraPoints.sample(scene, tracer, s.camera_points, rng).surface  # X
+    points = CameraPoints.sample(scene, context.tracer, s.camera_points, rng).surface  # X
     if len(points) == 0:
         return
-
-    # INVALID: not verifiably indirectly visible, or on an object that moved
-    if len(state):
-        valid, box_p, box_n = validate(scene.camera, tracer, state.surface.position, state.surface.shading_normal,
-                                       *state.mailbox, points.position, points.geometric_normal, rng,
-                                       s.visibility_rays, s.visibility_iterations)
-        if motion is not None and motion.boxes:
-            valid &= ~_inside_boxes(state.surface.position, motion.boxes, 1e-4 * max(extent, 1e-12))
-        state.mailbox = (box_p, box_n)
-    else:
-        valid = np.zeros(0, bool)
-
-    # candidates, their radiosities and their k = 1 densities among the current VPLs
+    valid = _verified(state, context, s, points, motion, extent)
     cand, source, covered = _candidates(context, s, points, budget)
     seeds = state.next_seed + np.arange(len(cand), dtype=np.int64)
-    radiosity = estimate_radiosity(scene, tracer, lights, cand, seeds, s.radiosity_samples, bounces, SELECTION)
-    if len(state):
-        density = knn_density(cand.position, state.surface.position, 1, budget, floor=floor)
-    else:
-        density = knn_density(cand.position, cand.position, 1, budget, exclude_self=True, floor=floor)
-    strength = luminance(radiosity) / np.where(np.isfinite(density) & (density > 0), density, np.inf)
+    state.next_seed += len(cand)
+    # an empty set takes every candidate (at most I), so their intensities need no radiosity
+    radiosity = _radiosity(context, s, cand, seeds, SELECTION) if len(state) else np.zeros((len(cand), 3))
+    pool = _Pool(cand, (points.position[source], points.geometric_normal[source]), seeds, radiosity)
+    for _ in range(steps):
+        moved = _step(state, context, settings, pool, valid, extent)
+        if moved is None:  # nothing changed: neither would the next steps on the same candidates
+            break
+        valid = moved
+    if s.area == "voronoi" and len(state) and len(covered[0]):
+        _voronoi(state, s, covered, context.tracer.threads)
+    state.iterations += steps
 
-    # eq. 9: how many VPLs to move; the weakest valid ones join the invalid ones; at most M_max leave
+
+def _voronoi(state: SMCState, s: SMCSettings, covered, workers: int) -> None:
+    """The "voronoi" areas: each hit gives the area it stands for to its nearest VPL, a running mean over
+    ``area_frames`` rounds."""
+    _, nearest = cKDTree(state.surface.position).query(covered[0], workers=workers)
+    share = np.bincount(nearest, weights=covered[1], minlength=len(state))
+    state.area_count += 1
+    state.area += (share - state.area) / np.minimum(state.area_count, s.area_frames)
+
+
+def _radiosity(context, s: SMCSettings, surface: Surface, seeds, stream) -> np.ndarray:
+    """Lines 7 and 18: ``estimate_radiosity`` in blocks of RADIOSITY_BLOCK VPLs on the tracer's threads (a VPL's
+    estimate does not depend on the others in its batch; fixed blocks keep the batches, so the threads do not change
+    the estimates)."""
+    def block(lo):
+        rows = slice(lo, lo + RADIOSITY_BLOCK)
+        return estimate_radiosity(context.scene, context.tracer, context.lights, surface.take(rows), seeds[rows],
+                                  s.radiosity_samples, max(1, context.max_bounces), stream)
+    starts = range(0, len(surface), RADIOSITY_BLOCK)
+    if len(starts) < 2 or context.tracer.threads < 2:
+        return np.concatenate([np.zeros((0, 3)), *map(block, starts)])
+    with ThreadPoolExecutor(min(context.tracer.threads, len(starts))) as pool:
+        return np.concatenate(list(pool.map(block, starts)))
+
+
+def _verified(state: SMCState, context, s: SMCSettings, points: Surface, motion, extent: float) -> np.ndarray:
+    """Line 4: the VPLs verified indirectly visible (mail-boxing) and not on an object that moved; their mailboxes
+    follow the points that verified them."""
+    if not len(state):
+        return np.zeros(0, bool)
+    valid, box_p, box_n = validate(context.scene.camera, context.tracer, state.surface.position,
+                                   state.surface.shading_normal, *state.mailbox, points.position,
+                                   points.geometric_normal, context.rng, s.visibility_rays, s.visibility_iterations)
+    if motion is not None and motion.boxes:
+        valid &= ~_inside_boxes(state.surface.position, motion.boxes, 1e-4 * max(extent, 1e-12))
+    state.mailbox = (box_p, box_n)
+    return valid
+
+
+def _step(state: SMCState, context, settings, pool: _Pool, valid: np.ndarray, extent: float) -> np.ndarray | None:
+    """Lines 8-19 with the candidates left in ``pool``: their k = 1 densities among the current VPLs (eq. 7),
+    M_min (eq. 9), at most M_max VPLs out, the strongest candidates in, the VPLs' densities for rendering (eq. 8).
+    Returns ``valid`` for the VPLs after the step (the new ones are valid), None if the step changed nothing."""
+    s: SMCSettings = settings.smc
+    budget = max(1, int(settings.vpls))
+    floor = 1e-6 * max(extent, 1e-12)
+    if len(state):
+        density = knn_density(pool.surface.position, state.surface.position, 1, budget, floor=floor)
+    else:
+        density = knn_density(pool.surface.position, pool.surface.position, 1, budget, exclude_self=True,
+                              floor=floor)
+    strength = luminance(pool.radiosity) / np.where(np.isfinite(density) & (density > 0), density, np.inf)
+    leave = _leaving(state, valid, strength, s)
+    before = len(state)
+    if not len(leave) and (before >= budget or not len(pool.seed)) and not state.stale_radiosity:
+        return None
+    if before:
+        kept = np.setdiff1d(np.arange(before), leave)
+        state.keep(kept)
+        valid = valid[kept]
+    room = budget - len(state)
+    if room > 0 and len(pool.seed):
+        best = np.argsort(-strength, kind="stable")[:room]
+        _admit(state, context, s, pool, best, strength)
+        valid = np.concatenate([valid, np.ones(len(best), bool)])
+        pool.remove(best)
+        if len(leave) and len(best) >= len(leave):  # new VPLs take the slots of those they replace
+            dest = np.concatenate([kept, leave, before + np.arange(len(best) - len(leave))])
+            order = np.argsort(dest)
+            state.keep(order)
+            valid = valid[order]
+    if state.stale_radiosity and len(state):  # line 18 where the scene changed
+        state.radiosity = _radiosity(context, s, state.surface, state.seed, RENDERING)
+    state.stale_radiosity = False
+    if len(state):
+        _rendering_density(state, s, budget, floor, extent)
+    return valid
+
+
+def _leaving(state: SMCState, valid: np.ndarray, strength: np.ndarray, s: SMCSettings) -> np.ndarray:
+    """Lines 9-13: INVALID, topped up with the weakest valid VPLs to M_min = min(M_max, M_strong) (eq. 9, M_strong
+    the candidates stronger than the percentile of the VPLs' intensities); at most M_max of them, sorted."""
     invalid = np.nonzero(~valid)[0]
     invalid = invalid[np.argsort(state.strength[invalid], kind="stable")]
-    if len(state):
-        threshold = np.percentile(state.strength, s.percentile)
-        m_min = min(s.replacements, int((strength > threshold).sum()))
-    else:
-        m_min = 0
+    m_min = min(s.replacements, int((strength > np.percentile(state.strength, s.percentile)).sum())) \
+        if len(state) else 0
     if len(invalid) < m_min:
         weakest = np.nonzero(valid)[0]
         weakest = weakest[np.argsort(state.strength[weakest], kind="stable")]
         invalid = np.concatenate([invalid, weakest[:m_min - len(invalid)]])
-    before, leave = len(state), np.sort(invalid[:s.replacements])
-    if len(state):
-        state.keep(np.setdiff1d(np.arange(len(state)), leave))
+    return np.sort(invalid[:s.replacements])
 
-    # the strongest candidates fill the budget
-    room = budget - len(state)
-    if room > 0 and len(cand):
-        best = np.argsort(-strength, kind="stable")[:room]
-        new = cand.take(best)
-        state.surface = new if state.surface is None else Surface.concat([state.surface, new])
-        # the radiosity that lights the image comes from the VPL's other stream: the one it was chosen by is
-        # biased upward by the choice (a candidate wins on a lucky estimate); estimated below if all are stale
-        state.radiosity = np.concatenate([state.radiosity, np.zeros((len(best), 3)) if state.stale_radiosity else
-                                          estimate_radiosity(scene, tracer, lights, new, seeds[best],
-                                                             s.radiosity_samples, bounces, RENDERING)])
-        state.seed = np.concatenate([state.seed, seeds[best]])
-        state.mailbox = (np.concatenate([state.mailbox[0], points.position[source[best]]]),
-                         np.concatenate([state.mailbox[1], points.geometric_normal[source[best]]]))
-        state.strength = np.concatenate([state.strength, strength[best]])
-        state.area = np.concatenate([state.area, np.zeros(len(best))])
-        state.area_count = np.concatenate([state.area_count, np.zeros(len(best), np.int64)])
-        if len(leave) and len(best) >= len(leave):  # new VPLs take the slots of those they replace
-            dest = np.concatenate([np.setdiff1d(np.arange(before), leave), leave,
-                                   before + np.arange(len(best) - len(leave))])
-            state.keep(np.argsort(dest))
-    state.next_seed += len(cand)
 
-    # lines 18-19: radiosities where the scene changed, densities for rendering
-    if state.stale_radiosity and len(state):
-        state.radiosity = estimate_radiosity(scene, tracer, lights, state.surface, state.seed,
-                                             s.radiosity_samples, bounces, RENDERING)
-    state.stale_radiosity = False
-    if len(state):
-        k = s.density_k or rendering_k(budget)
-        r = knn_radius(state.surface.position, state.surface.position, k, exclude_self=True)
-        r = np.where(np.isfinite(r), np.maximum(r, floor), max(extent, 1e-12))  # too few VPLs: the scene's size
-        p = k / (budget * np.pi * r * r)
-        state.strength = luminance(state.radiosity) / p
-        state.density = p
-        if s.area == "voronoi" and len(covered[0]):
-            _, nearest = cKDTree(state.surface.position).query(covered[0])
-            share = np.bincount(nearest, weights=covered[1], minlength=len(state))
-            state.area_count += 1
-            state.area += (share - state.area) / np.minimum(state.area_count, s.area_frames)
-    state.iterations += 1
+def _admit(state: SMCState, context, s: SMCSettings, pool: _Pool, best: np.ndarray, strength: np.ndarray):
+    """Lines 14-17: the candidates ``best``, the strongest by ``strength`` (of every candidate of the pool), join
+    the set (at its end)."""
+    new = pool.surface.take(best)
+    state.surface = new if state.surface is None else Surface.concat([state.surface, new])
+    # the radiosity that lights the image comes from the VPL's other stream: the one it was chosen by is biased
+    # upward by the choice (a candidate wins on a lucky estimate); estimated at line 18 if all are stale
+    state.radiosity = np.concatenate([state.radiosity, np.zeros((len(best), 3)) if state.stale_radiosity else
+                                      pool.rendering_radiosity(context, s, best, strength)])
+    state.seed = np.concatenate([state.seed, pool.seed[best]])
+    state.mailbox = (np.concatenate([state.mailbox[0], pool.mailbox[0][best]]),
+                     np.concatenate([state.mailbox[1], pool.mailbox[1][best]]))
+    state.strength = np.concatenate([state.strength, strength[best]])
+    state.area = np.concatenate([state.area, np.zeros(len(best))])
+    state.area_count = np.concatenate([state.area_count, np.zeros(len(best), np.int64)])
+
+
+def _rendering_density(state: SMCState, s: SMCSettings, budget: int, floor: float, extent: float) -> None:
+    """Line 19: p(y) of eq. 7 with the k of eq. 8, and the intensities lum(L) / p that rank the VPLs."""
+    k = s.density_k or rendering_k(budget)
+    r = knn_radius(state.surface.position, state.surface.position, k, exclude_self=True)
+    r = np.where(np.isfinite(r), np.maximum(r, floor), max(extent, 1e-12))  # too few VPLs: the scene's size
+    state.density = k / (budget * np.pi * r * r)
+    state.strength = luminance(state.radiosity) / state.density
 
 
 def start(context, settings) -> SMCState:
@@ -229,7 +321,7 @@ def start(context, settings) -> SMCState:
 
 
 def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, dict]:
-    """The frame's VPLs: after a cold start ``warmup`` iterations first, then this frame's iteration."""
+    """The frame's VPLs: this frame's iteration, after a cold start the last of ``warmup`` + 1 (``warmup_rounds``)."""
     rays0 = context.tracer.rays_traced
     if state.iterations and motion is not None and motion.static():  # nothing moved: the same VPLs, no rays
         lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
@@ -237,15 +329,21 @@ def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, 
                         "sampling_rays": 0, "reused": True}
     if motion is None or motion.first or motion.lights_changed or motion.geometry_changed or motion.shading_changed:
         state.stale_radiosity = True
-    moved = len(state)
-    for _ in range(settings.smc.warmup if state.iterations == 0 else 0):
-        iterate(state, context, settings, motion)
-    before = set(state.seed.tolist())
-    iterate(state, context, settings, motion)
+    moved, before = len(state), set(state.seed.tolist())
+    for steps in warmup_rounds(settings.smc) if state.iterations == 0 else [1]:
+        iterate(state, context, settings, motion, steps)
     replaced = len(set(state.seed.tolist()) - before)
     lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
     return lights, {"vpls": len(lights), "replaced": replaced if moved else len(lights), "light_paths": 0,
                     "iterations": state.iterations, "sampling_rays": context.tracer.rays_traced - rays0}
+
+
+def warmup_rounds(s: SMCSettings) -> list[int]:
+    """The iterations of each round of a cold start: one that fills the empty set, then the ``warmup`` others, the
+    frame's own the last, split as evenly as they go into at most ``s.warmup_rounds`` rounds. Nothing moves between
+    them, so the frame's iteration is a warm-up iteration like the others."""
+    rounds = min(s.warmup_rounds, s.warmup)
+    return [1] + [s.warmup // rounds + (i < s.warmup % rounds) for i in range(rounds)]
 
 
 def as_virtual_lights(state: SMCState, budget: int, settings_area: str = "voronoi") -> VirtualLights:

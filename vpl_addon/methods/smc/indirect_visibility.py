@@ -86,5 +86,3 @@ def validate(camera, tracer, vpl_position, vpl_normal, mailbox_position, mailbox
         valid[found] = True
         box_p[found], box_n[found] = points[source], point_normals[source]
     return valid, box_p, box_n
-
-

@@ -31,6 +31,16 @@ def knn_radius(points: np.ndarray, among: np.ndarray, k: int, exclude_self: bool
     return dist if dist.ndim == 1 else dist[:, -1]
 
 
+def knn_radii(points: np.ndarray, ks: tuple[int, ...], workers: int = 1) -> tuple[np.ndarray, ...]:
+    """``knn_radius(points, points, k, exclude_self=True)`` for each k of ``ks``, from one query of the largest (on
+    ``workers`` threads)."""
+    points = np.asarray(points, np.float64)
+    if len(points) <= max(ks):
+        return tuple(knn_radius(points, points, k, exclude_self=True) for k in ks)
+    dist, _ = cKDTree(points).query(points, k=max(ks) + 1, workers=workers)
+    return tuple(dist[:, k] for k in ks)
+
+
 def knn_density(points: np.ndarray, among: np.ndarray, k: int, total: int, exclude_self: bool = False,
                 floor: float = 0.0) -> np.ndarray:
     """Eq. 7: p(y) = k / (total pi r_k^2), with r_k at least ``floor`` (coincident points would give infinity)."""

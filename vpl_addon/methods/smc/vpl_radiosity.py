@@ -5,15 +5,17 @@ VPL [...] by initializing the pseudo-random number used by path tracer with a VP
 
 Each VPL y draws every random number of its paths from its own counter-based stream (a hash of its seed), in a fixed
 layout per (sample, vertex), so re-estimating an unchanged VPL in an unchanged scene gives the same value and a moving
-light changes it smoothly. Paths use the engine's one light sampler at every vertex (``lights.direct``, its diffuse
-part) and its one diffuse bounce (``materials.surface``), fed the VPL's numbers through ``PresetNumbers``; they end at
-the scene's bounce limit (the VPL is the first diffuse vertex) or by Russian roulette on the albedo. The result is the
-VPL's outgoing radiance Lo(y) = albedo / pi * irradiance, per RGB channel.
+light changes it smoothly (a compiled kernel hashes, vertex by vertex, the numbers of the paths still alive). Paths
+use the engine's one light sampler at every vertex (``lights.direct``, its diffuse part) and its one diffuse bounce
+(``materials.surface``), fed the VPL's numbers through ``PresetNumbers``; they end at the scene's bounce limit (the
+VPL is the first diffuse vertex) or by Russian roulette on the albedo. The result is the VPL's outgoing radiance
+Lo(y) = albedo / pi * irradiance, per RGB channel.
 """
 from __future__ import annotations
 
 import numpy as np
 
+from ...core.compiled import kernel
 from ...lights.direct import direct_light
 from ...materials.surface import Surface, diffuse_bounce
 
@@ -34,24 +36,47 @@ class PresetNumbers:
         return column
 
 
-def _mix(x: np.ndarray) -> np.ndarray:
-    """SplitMix64's finaliser: a bijective scramble of 64-bit integers."""
+# the hash's odd multipliers: of the VPL's seed, of the stream, the offset, of the position in the row
+_GOLDEN, _SEED_MIX = np.uint64(0x9E3779B97F4A7C15), np.uint64(0xC2B2AE3D27D4EB4F)
+_OFFSET, _COUNTER = np.uint64(0x632BE59BD9B4E019), np.uint64(0xD1B54A32D192ED03)
+
+
+@kernel
+def _mix(x):
+    """SplitMix64's finaliser: a bijective scramble of a 64-bit integer."""
     x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
     return x ^ (x >> np.uint64(31))
 
 
+@kernel
+def _vertex_numbers(seeds, vpl, sample, depth, vertices, seed):
+    """(len(vpl), NUMBERS_PER_VERTEX): the numbers of vertex ``depth`` of path sample[i] of the VPL vpl[i]."""
+    out = np.empty((len(vpl), NUMBERS_PER_VERTEX))
+    salt = np.uint64(seed & 0xFFFFFFFF) * _SEED_MIX + _OFFSET
+    for i in range(len(vpl)):
+        key = _mix(np.uint64(seeds[vpl[i]]) * _GOLDEN + salt)
+        first = (sample[i] * vertices + depth) * NUMBERS_PER_VERTEX
+        for j in range(NUMBERS_PER_VERTEX):
+            bits = _mix(key + np.uint64(first + j) * _COUNTER)
+            out[i, j] = np.float64(bits >> np.uint64(11)) * (1.0 / 9007199254740992.0)
+    return out
+
+
+def vertex_numbers(seeds: np.ndarray, vpl: np.ndarray, sample: np.ndarray, depth: int, vertices: int,
+                   seed: int = 0) -> np.ndarray:
+    """The row of ``vpl_numbers`` for (vpl[i], sample[i], depth), computed for these rows only."""
+    return _vertex_numbers(np.asarray(seeds, np.int64), np.asarray(vpl, np.int64), np.asarray(sample, np.int64),
+                           int(depth), int(vertices), int(seed))
+
+
 def vpl_numbers(seeds: np.ndarray, samples: int, vertices: int, seed: int = 0) -> np.ndarray:
     """(N, samples, vertices, NUMBERS_PER_VERTEX) uniform numbers in [0, 1); row i depends on ``seeds[i]`` (and
     ``seed``) alone: a counter-based generator, the SplitMix64 hash of (seed, VPL seed, position in the row)."""
-    width = samples * vertices * NUMBERS_PER_VERTEX
-    with np.errstate(over="ignore"):
-        key = _mix(np.asarray(seeds, np.int64).astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
-                   + np.uint64(int(seed) & 0xFFFFFFFF) * np.uint64(0xC2B2AE3D27D4EB4F) + np.uint64(0x632BE59BD9B4E019))
-        counter = np.arange(width, dtype=np.uint64) * np.uint64(0xD1B54A32D192ED03)
-        bits = _mix(key[:, None] + counter[None, :])
-    return ((bits >> np.uint64(11)).astype(np.float64) * (1.0 / (1 << 53))).reshape(
-        len(seeds), samples, vertices, NUMBERS_PER_VERTEX)
+    n = len(seeds)
+    vpl, sample = np.repeat(np.arange(n), samples), np.tile(np.arange(samples), n)
+    return np.stack([vertex_numbers(seeds, vpl, sample, d, vertices, seed) for d in range(vertices)], axis=1).reshape(
+        n, samples, vertices, NUMBERS_PER_VERTEX)
 
 
 def estimate_radiosity(scene, tracer, lights, surface: Surface, seeds: np.ndarray, samples: int,
@@ -61,7 +86,6 @@ def estimate_radiosity(scene, tracer, lights, surface: Surface, seeds: np.ndarra
     n = len(surface)
     if n == 0 or len(lights) == 0 or max_bounces < 1 or samples < 1:
         return np.zeros((n, 3))
-    numbers = vpl_numbers(seeds, samples, max_bounces, seed)
     owner = np.repeat(np.arange(n), samples)
     sample = np.tile(np.arange(samples), n)
     current = surface.take(owner)
@@ -69,7 +93,7 @@ def estimate_radiosity(scene, tracer, lights, surface: Surface, seeds: np.ndarra
     total = np.zeros((len(owner), 3))
     rows = np.arange(len(owner))  # the paths still alive, index into owner
     for depth in range(max_bounces):
-        u = numbers[owner[rows], sample[rows], depth]  # (k, NUMBERS_PER_VERTEX)
+        u = vertex_numbers(seeds, owner[rows], sample[rows], depth, max_bounces, seed)  # (k, NUMBERS_PER_VERTEX)
         choice = [u[:, 0]] if lights.local else []
         direct = direct_light(current, lights, tracer, 1, PresetNumbers(choice),
                               numbers=tuple(u[:, i:i + 1] for i in (1, 2, 3, 4)))[0]
