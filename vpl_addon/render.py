@@ -244,7 +244,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         continue
                     u, v = stratified_2d(len(pixels), count, rng)
                     deal = rng.permuted(np.broadcast_to(np.arange(count), (len(pixels), count)), axis=1)
-                    numbers += [np.take_along_axis(u, deal, 1)[rows, cols], np.take_along_axis(v, deal, 1)[rows, cols]]
+                    dealt = deal[rows, cols]  # each camera sample's numbers among its pixel's
+                    numbers += [u[rows, dealt], v[rows, dealt]]
                 through = None if glazed is None else np.zeros_like(surf.albedo)
                 direct, glossy = direct_light(surf, lights, tracer, settings.light_samples, rng,
                                               numbers=tuple(numbers), glossy=lobe, through=through)
@@ -258,7 +259,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 if sampled is None:
                     light = summed(sub, None, gbuf.pixel_of_hit[rows], rng)
                 else:
-                    light = sampled(surf.take(np.repeat(rows, repeats)), vpls, context, settings.placement, rng)
+                    light = sampled(sub if repeats == 1 else surf.take(np.repeat(rows, repeats)), vpls, context,
+                                    settings.placement, rng)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
                 if lobe is not None:
@@ -357,7 +359,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                                                          1e-300)
                 return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
                                     (count > 0).reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
-                                    settings.gather.interleave).reshape(-1, 3)
+                                    settings.gather.interleave, settings.threads).reshape(-1, 3)
             indirect = smooth(indirect, 0)
             guard("filter", {P.DIFFUSE_INDIRECT: indirect})
             if need_glossy:

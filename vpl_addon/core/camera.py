@@ -17,6 +17,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from .compiled import kernel
 from .sampling import normalize
 
 FILTER_TABLE_SIZE = 1024
@@ -134,9 +135,17 @@ class Camera:
             dirs = np.broadcast_to(-rot[:, 2], origins.shape).copy()
             near = np.full(len(px), self.clip_start)
         else:
-            local_d = np.stack([sx, sy, -np.ones_like(sx)], axis=-1)
-            length = np.linalg.norm(local_d, axis=-1)
-            dirs = (local_d / length[:, None]) @ rot.T
+            dirs, length = np.empty((len(sx), 3)), np.empty(len(sx))
+            _perspective(np.asarray(sx, np.float64), np.asarray(sy, np.float64), rot, dirs, length)
             origins = np.broadcast_to(pos, dirs.shape).copy()
             near = self.clip_start * length
         return origins, dirs, near
+
+
+@kernel
+def _perspective(sx, sy, rot, dirs, length):
+    """The unit directions (``rot`` times (sx, sy, -1) over its ``length``) of a perspective camera's rays."""
+    for i in range(len(sx)):
+        length[i] = np.sqrt(sx[i] * sx[i] + sy[i] * sy[i] + 1.0)
+        for c in range(3):
+            dirs[i, c] = (rot[c, 0] * sx[i] + rot[c, 1] * sy[i] - rot[c, 2]) / length[i]

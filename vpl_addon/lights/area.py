@@ -95,28 +95,15 @@ class AreaLight(Light):
         x, y = self.axis_u / lx, self.axis_v / ly
         return x, y, np.cross(x, y), lx, ly
 
-    def _spherical_rectangle(self, p):
-        """The per-point part of Urena et al.'s sampling (their Algorithm 1 up to the solid angle), (P,) each: the
-        rectangle's corner (x0, y0) in its frame seen from each point, the point's signed height zs over the
-        rectangle's plane (the algorithm works with z0 = -|zs|, the rectangle below the point), b0, b1, k and the
-        solid angle (0 where degenerate)."""
+    def _corner(self):
+        """The rectangle's corner -axis_u/2 - axis_v/2 and its frame (``_frame``): what ``_setup`` takes."""
         x, y, z, lx, ly = self._frame()
-        d = (self.center - 0.5 * self.axis_u - 0.5 * self.axis_v) - p
-        x0, y0, zs = d @ x, d @ y, d @ z
-        z0 = -np.abs(zs)
-        zero = np.zeros_like(z0)
+        return self.center - 0.5 * self.axis_u - 0.5 * self.axis_v, np.stack([x, y, z]), lx, ly
 
-        def unit(a, b, c):
-            v = np.stack([a, b, c], axis=-1)
-            return v / np.maximum(np.linalg.norm(v, axis=-1, keepdims=True), 1e-300)
-
-        # normals of the spherical quad's edges in the local frame (x, y, z)
-        n0, n1, n2, n3 = unit(zero, z0, -y0), unit(-z0, zero, x0 + lx), unit(zero, -z0, y0 + ly), unit(z0, zero, -x0)
-        g0, g1, g2, g3 = (np.arccos(np.clip(-dot(a, b), -1, 1)) for a, b in ((n0, n1), (n1, n2), (n2, n3), (n3, n0)))
-        k = 2.0 * np.pi - g2 - g3
-        solid = g0 + g1 - k
-        solid = np.where(np.isfinite(solid) & (solid > 1e-12), solid, 0.0)
-        return x0, y0, zs, n0[:, 2], n2[:, 2], k, solid
+    def _solid_angles(self, p):
+        """(P,) the solid angle the rectangle subtends at each point (0 where degenerate)."""
+        corner, frame, lx, ly = self._corner()
+        return _solid_angles(np.asarray(p, np.float64), corner, frame, lx, ly)
 
     def _sample_spherical_rectangle(self, p, u1, u2, owner=None):
         """Uniform in the solid angle the rectangle subtends (Urena, Fajardo, King: "An Area-Preserving
@@ -129,13 +116,13 @@ class AreaLight(Light):
         front = dot(p - self.center, self.normal) > 0.0
         if not front.any():
             return wi, dist, weight
-        at = np.where(front, np.cumsum(front) - 1, -1)[owner]  # each sample's point among those in front, or -1
-        x, y, z, lx, ly = self._frame()
+        at = np.where(front, np.arange(len(p)), -1)[owner]  # each sample's point, or -1 behind the light
+        corner, frame, lx, ly = self._corner()
         h = 0.5 * float(np.clip(self.spread, np.radians(1.0), np.pi))
         lambertian = h >= 0.5 * np.pi - 1e-6  # ``spread_profile``'s two cases
         norm = 1.0 if lambertian else np.tan(h) * np.sin(h) ** 2 - h + np.sin(h) * np.cos(h)
-        _rectangle_samples(at, np.stack(self._spherical_rectangle(p[front]), axis=1), u1, u2, np.stack([x, y, z]),
-                           lx, ly, self.normal, self.radiance, lambertian, np.tan(h), norm, wi, dist, weight)
+        _rectangle_samples(at, np.asarray(p, np.float64), corner, frame, lx, ly, u1, u2, self.normal, self.radiance,
+                           lambertian, np.tan(h), norm, wi, dist, weight)
         return wi, dist, weight
 
     def mis(self, p, n, w):
@@ -153,7 +140,7 @@ class AreaLight(Light):
         if self.round:
             pdf[hit] = t[hit] ** 2 / np.maximum(facing[hit] * self.area, 1e-300)
         else:  # the spherical rectangle's set-up only where the ray finds the light
-            solid = self._spherical_rectangle(p[hit])[-1]
+            solid = self._solid_angles(p[hit])
             pdf[hit] = np.where(solid > 0.0, 1.0 / np.maximum(solid, 1e-300), 0.0)
         return np.where(hit, t, 0.0), radiance, pdf
 
@@ -164,18 +151,60 @@ class AreaLight(Light):
 
 
 @kernel
-def _rectangle_samples(at, per_point, u1, u2, frame, lx, ly, normal, radiance, lambertian, tan_h, norm,
+def _setup(p, corner, frame, lx, ly):
+    """The per-point part of Urena et al.'s Algorithm 1 up to the solid angle, at point p: the rectangle's corner
+    (x0, y0) in its frame seen from p, p's signed height zs over the rectangle's plane (the algorithm works with
+    z0 = -|zs|, the rectangle below the point), b0 and b1 (the z of the first and third edge normals), k and the
+    solid angle (0 where degenerate)."""
+    d0, d1, d2 = corner[0] - p[0], corner[1] - p[1], corner[2] - p[2]
+    x0 = d0 * frame[0, 0] + d1 * frame[0, 1] + d2 * frame[0, 2]
+    y0 = d0 * frame[1, 0] + d1 * frame[1, 1] + d2 * frame[1, 2]
+    zs = d0 * frame[2, 0] + d1 * frame[2, 1] + d2 * frame[2, 2]
+    z0 = -abs(zs)
+    # the unit normals of the spherical quad's edges, in the frame: (0, z0, -y0), (-z0, 0, x1), (0, -z0, y1),
+    # (z0, 0, -x0) over their lengths
+    x1, y1 = x0 + lx, y0 + ly
+    l0 = max(np.sqrt(z0 * z0 + y0 * y0), 1e-300)
+    l1 = max(np.sqrt(z0 * z0 + x1 * x1), 1e-300)
+    l2 = max(np.sqrt(z0 * z0 + y1 * y1), 1e-300)
+    l3 = max(np.sqrt(z0 * z0 + x0 * x0), 1e-300)
+    # the angles between neighbouring edges: arccos(-n_a . n_b), n0 . n1 = -y0 x1, n1 . n2 = x1 y1, n2 . n3 = -y1 x0,
+    # n3 . n0 = x0 y0 over the lengths
+    g0 = np.arccos(_clip(y0 * x1 / (l0 * l1), -1.0, 1.0))
+    g1 = np.arccos(_clip(-x1 * y1 / (l1 * l2), -1.0, 1.0))
+    g2 = np.arccos(_clip(y1 * x0 / (l2 * l3), -1.0, 1.0))
+    g3 = np.arccos(_clip(-x0 * y0 / (l3 * l0), -1.0, 1.0))
+    k = 2.0 * np.pi - g2 - g3
+    solid = g0 + g1 - k
+    if not (np.isfinite(solid) and solid > 1e-12):
+        solid = 0.0
+    return x0, y0, zs, -y0 / l0, y1 / l2, k, solid
+
+
+@kernel
+def _solid_angles(p, corner, frame, lx, ly):
+    out = np.empty(len(p))
+    for i in range(len(p)):
+        out[i] = _setup(p[i], corner, frame, lx, ly)[6]
+    return out
+
+
+@kernel
+def _rectangle_samples(at, p, corner, frame, lx, ly, u1, u2, normal, radiance, lambertian, tan_h, norm,
                        wi, dist, weight):
-    """The per-sample part of Urena et al.'s Algorithm 1, fused (``_sample_spherical_rectangle``): for each sample i
-    of the point ``at[i]`` (-1: behind the light, left zero), the direction ``wi``, distance ``dist`` and weight
-    L x solid angle x ``spread_profile`` (``lambertian``: 1; else from tan(h) and its normalisation ``norm``).
-    ``per_point`` (P,7): ``_spherical_rectangle``'s x0, y0, zs, b0, b1, k, solid; ``frame`` the rows x, y, z."""
+    """The samples of Urena et al.'s Algorithm 1 (``_sample_spherical_rectangle``): for each sample i of the
+    point ``at[i]`` (-1: behind the light, left zero; a point's samples side by side, so its ``_setup`` is made
+    once), the direction ``wi``, distance ``dist`` and weight L x solid angle x ``spread_profile``
+    (``lambertian``: 1; else from tan(h) and its normalisation ``norm``). ``frame`` holds the rows x, y, z."""
+    last = -1
+    x0 = y0 = zs = b0 = b1 = k = solid = 0.0
     for i in range(len(at)):
         j = at[i]
         if j < 0:
             continue
-        x0, y0, zs, b0, b1, k, solid = (per_point[j, 0], per_point[j, 1], per_point[j, 2], per_point[j, 3],
-                                        per_point[j, 4], per_point[j, 5], per_point[j, 6])
+        if j != last:
+            x0, y0, zs, b0, b1, k, solid = _setup(p[j], corner, frame, lx, ly)
+            last = j
         z0 = -abs(zs)
         au = u1[i] * solid + k
         fu = (np.cos(au) * b0 - b1) / np.sin(au)
