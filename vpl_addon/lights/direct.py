@@ -54,6 +54,10 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     ng = surface.geometric_normal
     ns = surface.shading_normal
     step = max(1, RAYS_PER_BATCH // samples)
+    # every sample's numbers drawn before the batches: how many batches there are does not change them
+    given = numbers or (None,) * 4
+    numbers_of = [rng.random(k * samples) if a is None else a.ravel() for a in given]
+    jitter = rng.random(k * samples) if lights.local else None
     for lo in range(0, k, step):
         hi = min(k, lo + step)
         owner = np.repeat(np.arange(hi - lo), samples)  # the point of each light sample, within the batch
@@ -62,11 +66,10 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         at_p, at_ns = p[lo:hi], ns[lo:hi]  # the batch's points
         origin = tracer.offset_origin(at_p, ng[lo:hi])
         at = (lo, hi, owner, origin, at_p, ng[lo:hi], at_ns, surface.smooth_normal[lo:hi])
-        given = numbers or (None,) * 4
-        u1, u2, w1, w2 = (rng.random(len(owner)) if a is None else a[lo:hi].ravel() for a in given)
+        u1, u2, w1, w2 = (a[lo * samples:hi * samples] for a in numbers_of)
         if lights.local:
             # stratify the light choice over the samples of one point
-            strata = (np.tile(np.arange(samples), hi - lo) + rng.random(len(owner))) / samples
+            strata = (np.tile(np.arange(samples), hi - lo) + jitter[lo * samples:hi * samples]) / samples
             wi, dist, weight, target_n, which = lights.sample_incident(at_p, at_ns, strata, u1, u2, owner)
             _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
                         lambda rows: lights.local_pdf(at_p[owner[rows]], at_ns[owner[rows]], wi[rows], which[rows]),
