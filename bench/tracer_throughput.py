@@ -26,7 +26,7 @@ def main():
     args = ap.parse_args()
 
     from vpl_addon.__main__ import extension_package
-    extension_package()
+    extension_package().register()  # the scene's settings are read from the extension's properties
     import bpy
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
