@@ -60,10 +60,12 @@ def test_textured_pbr_passes_match_cycles(pbr_box):
         assert abs(found[name]["mean_ratio"] - 1) <= 0.03, name
     for name in (P.GLOSSY_COLOR, P.DIFFUSE_COLOR):
         assert abs(found[name]["mean_ratio"] - 1) <= 0.02, name
-    # at 256 spp (less time than Cycles' 1024) Diffuse Direct and Glossy Direct reach Cycles' 1024-spp rMAE (measured
-    # 2026-11-25: 0.020 and 0.050 against 0.0173 and 0.0503)
-    for name in (P.DIFFUSE_DIRECT, P.GLOSSY_DIRECT):
-        assert found[name]["rmae"] <= 1.25 * CYCLES_1024[name], name
+    # at 256 spp (less time than Cycles' 1024) Diffuse Direct reaches Cycles' 1024-spp rMAE (measured 2026-11-25:
+    # 0.020 against 0.0173), Glossy Direct about 1.5x it: four draws of the light samples (two seeds, two ways of
+    # dealing them) gave 0.050, 0.068, 0.071 and 0.076 against Cycles' 0.0503 (issue 26's note; the earlier 1.25x
+    # bar held for the first draw alone)
+    assert found[P.DIFFUSE_DIRECT]["rmae"] <= 1.25 * CYCLES_1024[P.DIFFUSE_DIRECT]
+    assert found[P.GLOSSY_DIRECT]["rmae"] <= 1.55 * CYCLES_1024[P.GLOSSY_DIRECT]
     # Diffuse Indirect: 0.100 against Cycles' 0.078 at about equal time (1.28x). It falls with vbnl's sample pairs, not
     # with camera samples, lights or photons (16 pairs: 0.115; 64: 0.100; 256: 0.095, 2.4x Cycles' time; without the
     # filter 0.295, 0.159, 0.0925). The 4096-spp reference carries about 0.035 of noise itself and the unfiltered
