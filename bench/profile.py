@@ -11,7 +11,7 @@ With ``--functions`` the render runs under py-spy (a sampling profiler that sees
 embree's time included in the line that called them), and the functions and lines with the largest share of the
 samples are listed: a compiled kernel's time shows in the line that called it.
 
-    .venv/bin/python bench/profile.py [SCENE.blend] [--size WxH] [--method M] [--functions] [--top N]
+    .venv/bin/python bench/profile.py [SCENE.blend] [--size WxH] [--method M] [--functions [--rate HZ]] [--top N]
 """
 from __future__ import annotations
 
@@ -123,6 +123,8 @@ def main():
     ap.add_argument("--method", help="placement method (default: the scene's)")
     ap.add_argument("--functions", action="store_true", help="profile the run with py-spy")
     ap.add_argument("--top", type=int, default=25)
+    ap.add_argument("--rate", type=int, default=100, help="py-spy's samples per second (it falls behind at 200 "
+                    "on 2 busy cores)")
     ap.add_argument("--inner", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if not args.functions:
@@ -133,7 +135,8 @@ def main():
                *(["--method", args.method] if args.method else [])]
     with tempfile.TemporaryDirectory() as folder:
         raw = os.path.join(folder, "samples.txt")
-        subprocess.run([str(spy), "record", "--rate", "200", "--format", "raw", "--output", raw, "--", *command],
+        subprocess.run([str(spy), "record", "--rate", str(args.rate), "--format", "raw", "--output", raw, "--",
+                        *command],
                        check=True)
         samples = pathlib.Path(raw).read_text() if os.path.exists(raw) else ""
         if "/vpl_addon/" not in samples:

@@ -15,6 +15,7 @@ stops the ray). Occlusion queries trace closest hits only for the rays embree's 
 from __future__ import annotations
 
 import os
+import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -59,7 +60,8 @@ class Tracer:
         tri = np.ascontiguousarray(tri - self.center, dtype=np.float32)
         self.triangle_count = len(tri)
         self.threads = max(1, threads or os.cpu_count() or 1)
-        self.rays_traced = 0
+        self.rays_traced = 0  # counted under ``_counting``: the render's blocks trace on two threads at once
+        self._counting = threading.Lock()
         extent = float(np.abs(tri).max()) if len(tri) else 1.0
         self.extent = extent if extent > 0.0 else 1.0
         self._scene = None
@@ -87,7 +89,8 @@ class Tracer:
     def _run32(self, o, d, tf, query):
         """embree's answers for rays in its own terms: float32, origins relative to ``center``."""
         n = len(o)
-        self.rays_traced += n
+        with self._counting:
+            self.rays_traced += n
         output = 1 if query == "INTERSECT" else None
 
         def job(lo):

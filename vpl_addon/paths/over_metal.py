@@ -14,7 +14,8 @@ direction of its lobe (cosine-weighted for a white Lambertian or diffuse one, vi
 reflected light: its direct light plus what the VPLs bring it straight (the caller's gather), and the path goes on
 from z through its diffuse lobe to find z's own light over metal (a wall lit by a bright patch the metal floor
 throws, seen in that floor). A diffuse hit straight from a diffuse vertex is the gather's own (the VPLs stand for
-it), so it is not counted, and the path goes no further there. This is the extension the photon lights' renderer makes
+it), so it is not counted, and the path goes no further there. Every vertex past the start goes on by Russian
+roulette on its throughput (``vertices.roulette``), as Cycles' paths do. This is the extension the photon lights' renderer makes
 at metal (``methods.vbnl.virtual_light_sampling``, Li et al. 2022 sec. 4), with the VPL gather where that one samples
 its lights.
 
@@ -31,7 +32,7 @@ from ..core.sampling import group_sum
 from ..lights.direct import direct_light
 from ..materials.microfacet import GlossyLobe
 from ..materials.surface import Surface, bounce
-from .vertices import PathVertices, at_metal, merged
+from .vertices import PathVertices, at_metal, merged, roulette
 
 # steps a path may take past its start; light further on is dropped (only metal facing metal gets that far)
 CHAIN = 4
@@ -57,8 +58,9 @@ def over_metal(surface: Surface, lobe: GlossyLobe | None, scene, tracer, lights,
             owner = v.owner[at]
             carried = v.throughput[at] * np.where((pdf[at] > 0.0)[:, None], sampled[at], 0.0)
             if v.lobe is not None:  # diffuse ends reached over metal
-                ends = np.nonzero((y.albedo.max(axis=1) > 0.0) & (carried.max(axis=1) > 0.0))[0]
-                end = PathVertices(y.take(ends), owner[ends], carried[ends] * y.albedo[ends])
+                carry = carried * y.albedo
+                ends, boost = roulette(carry, rng)
+                end = PathVertices(y.take(ends), owner[ends], carry[ends] * boost[:, None])
                 light = direct_light(end.point, lights, tracer, 1, rng)[0]
                 if step + 1 <= max_bounces:
                     light = light + vpl_light(end.point, end.owner)

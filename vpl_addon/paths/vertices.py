@@ -64,12 +64,30 @@ def merged(vertices: list[PathVertices]) -> list[PathVertices]:
     return out
 
 
+def roulette(weight: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """Russian roulette (Arvo and Kirk 1990) on path vertices whose throughput with their own lobe's albedo is
+    ``weight`` (K,3): (the rows that go on, 1/q for each of them), q = min(1, sqrt(max weight)), the probability
+    with which Cycles continues a path (``path_state_continuation_probability``). Dividing the survivors'
+    throughput by q keeps every estimate unbiased, while a path through a faint lobe (a clear coat's 4 %) stops
+    early instead of branching on to the bounce limit. Only rows with 0 < q < 1 draw a number; q = 0 (or NaN)
+    stops."""
+    q = np.minimum(np.sqrt(np.max(weight, axis=1, initial=0.0)), 1.0)
+    live = q > 0.0
+    doubt = np.nonzero(live & (q < 1.0))[0]
+    live[doubt] = rng.random(len(doubt)) < q[doubt]
+    rows = np.nonzero(live)[0]
+    return rows, 1.0 / q[rows]
+
+
 def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.ndarray, lights, tracer, rng,
              out: np.ndarray) -> PathVertices:
-    """The hits ``rows`` of ``y`` as metallic vertices (``owner`` and ``throughput`` given per hit), their direct
-    light through the lobe (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``) added to ``out``."""
-    point = y.take(rows)
-    metal = PathVertices(point, owner[rows], throughput[rows], GlossyLobe.of(point))
-    out += group_sum(metal.owner, metal.throughput * direct_light(point, lights, tracer, GLOSSY_LIGHT_SAMPLES, rng,
-                                                                  glossy=metal.lobe)[1], len(out))
+    """The hits ``rows`` of ``y`` as metallic vertices (``owner`` and ``throughput`` given per hit) that survive
+    ``roulette`` on their throughput times their lobe's albedo (Glossy Color), their direct light through the lobe
+    (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``) added to ``out``."""
+    lobe = GlossyLobe.of(y.take(rows))
+    live, boost = roulette(throughput[rows] * lobe.color, rng)
+    rows, lobe = rows[live], lobe.take(live)
+    metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe)
+    out += group_sum(metal.owner, metal.throughput * direct_light(metal.point, lights, tracer, GLOSSY_LIGHT_SAMPLES,
+                                                                  rng, glossy=metal.lobe)[1], len(out))
     return metal

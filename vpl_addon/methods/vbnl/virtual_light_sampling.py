@@ -38,7 +38,7 @@ from ...core.sampling import dot, group_sum, sample_cdf, uniform_cone
 from ...lights.direct import direct_light
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import bounce
-from ...paths.vertices import PathVertices, at_metal, merged
+from ...paths.vertices import PathVertices, at_metal, merged, roulette
 
 
 @dataclass
@@ -136,10 +136,11 @@ def _extended(y, rows, owner, carried, mean_share, light_set, tracer, rng, out):
     """Camera path extension (eq. 6-9) at the BSDF samples' hits ``rows`` of ``y`` (``owner``, ``carried`` and
     ``mean_share`` given per hit): what the lights leave of the diffuse part, (1 - mean w_v), comes from the path
     continued at y, its direct light added to ``out`` now (next-event estimation); a metallic lobe at y is not in
-    the lights at all and always continues. Returns the vertices of the next level."""
+    the lights at all and always continues. Both go on by Russian roulette (``paths.vertices.roulette``). Returns
+    the vertices of the next level."""
     carry = carried[rows] * (1.0 - mean_share[rows])[:, None] * y.albedo[rows]
-    go = np.nonzero(carry.max(axis=1) > 0.0)[0]
-    following = [PathVertices(y.take(rows[go]), owner[rows[go]], carry[go])]
+    go, boost = roulette(carry, rng)
+    following = [PathVertices(y.take(rows[go]), owner[rows[go]], carry[go] * boost[:, None])]
     out += group_sum(following[0].owner, following[0].throughput *
                      direct_light(following[0].point, light_set, tracer, 1, rng)[0], len(out))
     shiny = rows[y.glossy[rows]]
