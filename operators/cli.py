@@ -245,7 +245,8 @@ def _check_range(settings, flag, value):
 
 
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",
-                 "photons", "vbnl_samples", "elimination", "smc_replacements", "smc_warmup")
+                 "photons", "vbnl_samples", "elimination", "smc_replacements", "smc_warmup",
+                 "smc_warmup_rounds")
 
 
 def cmd_reference(args) -> int:
@@ -394,6 +395,9 @@ def _render_flags(r) -> None:
                         "energy changes less than T (default 0.001; 0: re-trace every moved segment)")
     r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
     r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
+    r.add_argument("--smc-warmup-rounds", type=int,
+                   help="smc: draws of candidates the warm-up iterations share (4; as many as --smc-warmup: the "
+                        "paper's warm-up, slower to start, its first frames flicker less)")
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
 
 

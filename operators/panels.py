@@ -56,6 +56,7 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
             if settings.method == "smc":
                 sub.prop(settings, "smc_replacements")
                 sub.prop(settings, "smc_warmup")
+                sub.prop(settings, "smc_warmup_rounds")
             sub.prop(settings, "indirect_samples")
             sub.prop(settings, "clamp")
             sub.prop(settings, "interleave")

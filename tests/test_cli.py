@@ -41,6 +41,19 @@ def test_vbnl_settings_reach_the_engine_from_the_command_line(tmp_path):
     assert "vbnl 300 VPLs, 5000 light paths" in stdout
 
 
+def test_smc_warmup_draws_reach_the_engine_and_are_checked(ext, tmp_path):
+    import bpy
+    settings = bpy.context.scene.vpl_gi
+    assert settings.smc_warmup_rounds == 4
+    settings.smc_warmup_rounds = 100  # the paper's warm-up
+    assert settings.render_settings(("Combined",)).placement.smc.warmup_rounds == 100
+    settings.smc_warmup_rounds = 4
+    code, _, stderr = run_cli("render", EXAMPLES / "cornell_area.blend", "-o", tmp_path / "smc.exr", "--method",
+                              "smc", "--smc-warmup-rounds", "0")
+    assert_one_line_error(code, stderr, "--smc-warmup-rounds 0", "at least 1")
+    assert not (tmp_path / "smc.exr").exists()
+
+
 def test_existing_output_is_not_overwritten_without_asking(small_blend, tmp_path):
     out = tmp_path / "keep.exr"
     out.write_bytes(b"precious")
