@@ -18,6 +18,7 @@ from ..core.compiled import kernel
 from .light import Light, disc_facing
 
 UNIFORM_SHARE = 0.1  # of the pdf spread by solid angle alone
+GUIDE_STEPS = 64  # entries of a row's guide table (``_sample``)
 
 
 class EnvironmentLight(Light):
@@ -44,6 +45,10 @@ class EnvironmentLight(Light):
         # each row's CDF over its texels, shifted by the row's index and laid end to end: one increasing array, so
         # a row's column is found by one search for row + u (no per-sample copy of the row)
         self.col_cdf = (np.stack([_cdf(r) for r in self.texel_prob]) + np.arange(h)[:, None]).ravel()
+        # per row, the first column whose CDF passes each k / GUIDE_STEPS: ``_sample``'s guide table
+        steps = np.arange(GUIDE_STEPS + 1) / GUIDE_STEPS
+        self.guide = np.stack([np.searchsorted(self.col_cdf[r * w:(r + 1) * w], r + steps, side="right")
+                               for r in range(h)]).astype(np.int64)
         # mean luminance over the sphere of directions, for choosing between the world and the other lights
         self.mean_luminance = float((self.image @ LUMINANCE * sin[:, None]).sum() / (w * sin.sum()))
 
@@ -66,7 +71,7 @@ class EnvironmentLight(Light):
     def sample(self, u1, u2):
         """Directions (N,3) drawn with ``pdf``, from uniform numbers u1, u2 (N,)."""
         wi = np.empty((len(u1), 3))
-        _sample(self.row_cdf, self.col_cdf, self.image.shape[1], self.rotation, u1, u2, wi)
+        _sample(self.row_cdf, self.col_cdf, self.guide, self.rotation, u1, u2, wi)
         return wi
 
     def _sample_incident(self, p, n, u1, u2):
@@ -100,23 +105,30 @@ def _reach(lum):
 
 
 @kernel
-def _invert(cdf, x):
-    """(bin of x under the increasing ``cdf``, where x falls within that bin in [0, 1])."""
-    index = min(np.searchsorted(cdf, x, side="right"), len(cdf) - 1)
-    lo = cdf[index - 1] if index > 0 else 0.0
-    return index, min(max((x - lo) / max(cdf[index] - lo, 1e-300), 0.0), 1.0)
+def _within(cdf, index, x, start):
+    """Where x falls within bin ``index`` of the increasing ``cdf`` (which starts from ``start``), in [0, 1]."""
+    lo = cdf[index - 1] if index > 0 else start
+    return min(max((x - lo) / max(cdf[index] - lo, 1e-300), 0.0), 1.0)
 
 
 @kernel
-def _sample(row_cdf, col_cdf, width, rotation, u1, u2, wi):
-    """``EnvironmentLight.sample``: a row by the marginal, a column by the row's conditional CDF (found as
-    row + u in the rows' CDFs laid end to end), a point within the texel, its direction turned back to the world
-    (R^-1 = R^T)."""
-    height = len(row_cdf)
+def _sample(row_cdf, col_cdf, guide, rotation, u1, u2, wi):
+    """``EnvironmentLight.sample``: a row by the marginal, a column by the row's conditional CDF (row + u in the
+    rows' CDFs laid end to end), a point within the texel, its direction turned back to the world (R^-1 = R^T).
+
+    The column is searched only between the row's two ``guide`` entries around u (a guide table, Chen and Asau
+    1974): the same bin as a search of the whole row, in one or two cache lines instead of eleven scattered ones (a
+    random row of a 2K map is cold, and the search was most of a world sample's time)."""
+    height, steps = len(row_cdf), guide.shape[1] - 1
+    width = len(col_cdf) // height
     for i in range(len(u1)):
-        row, fv = _invert(row_cdf, u1[i])
-        flat, fu = _invert(col_cdf, row + u2[i])
-        col = min(flat - row * width, width - 1)
+        row = min(np.searchsorted(row_cdf, u1[i], side="right"), height - 1)
+        fv = _within(row_cdf, row, u1[i], 0.0)
+        cdf, x = col_cdf[row * width:(row + 1) * width], row + u2[i]
+        k = min(int(u2[i] * steps), steps - 1)
+        a, b = guide[row, k], min(guide[row, k + 1] + 1, width)
+        col = min(a + np.searchsorted(cdf[a:b], x, side="right"), width - 1)
+        fu = _within(cdf, col, x, float(row))
         theta, phi = np.pi * (1.0 - (row + fv) / height), 2.0 * np.pi * (0.5 - (col + fu) / width)
         d0, d1, d2 = np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)
         for c in range(3):
