@@ -70,10 +70,10 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
         if lights.local:
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + jitter[lo * samples:hi * samples]) / samples
-            wi, dist, weight, target_n, which = lights.sample_incident(at_p, at_ns, strata, u1, u2, owner)
+            wi, dist, weight, target_n, which, chance = lights.sample_incident(at_p, at_ns, strata, u1, u2, owner)
             _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
-                        lambda rows: lights.local_pdf(at_p[owner[rows]], at_ns[owner[rows]], wi[rows], which[rows]),
-                        glazed)
+                        lambda rows: lights.local_pdf(at_p[owner[rows]], at_ns[owner[rows]], wi[rows], which[rows],
+                                                      chance[rows]), glazed)
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(at_p, at_ns, w1, w2, owner)
             _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,

@@ -64,14 +64,15 @@ class LightSet:
 
     def sample_incident(self, p, n, u_select, u1, u2, owner=None):
         """One sample of a local light per sample: (wi, dist, L_e / pdf including 1/p_select, normal at the light
-        point or None, the index of each sample's light among the local ones). ``owner`` as in
+        point or None, the index of each sample's light among the local ones, p_select). ``owner`` as in
         ``Light.sample_incident`` (the points p, n, the samples u); the light is chosen by the light tree
         (``selection``) from ``u_select``. The normal is zero where the light point is not on scene geometry
         (analytic lights), None if no light is on geometry."""
         owner = np.arange(len(p)) if owner is None else owner
         if len(self.local) == 1:
             out = self.local[0].sample_incident(p, n, u1, u2, owner)
-            return out[0], out[1], out[2], out[3] if len(out) == 4 else None, np.zeros(len(owner), np.int64)
+            return out[0], out[1], out[2], out[3] if len(out) == 4 else None, np.zeros(len(owner), np.int64), \
+                np.ones(len(owner))
         count = len(owner)
         wi, dist, weight, target_n = np.zeros((count, 3)), np.zeros(count), np.zeros((count, 3)), None
         choice, prob = self.tree.sample(p, n, owner, u_select)
@@ -86,18 +87,19 @@ class LightSet:
             if len(out) == 4:
                 target_n = np.zeros((count, 3)) if target_n is None else target_n
                 target_n[m] = out[3]
-        return wi, dist, weight, target_n, choice
+        return wi, dist, weight, target_n, choice, prob
 
-    def local_pdf(self, p, n, w, which):
+    def local_pdf(self, p, n, w, which, chance=None):
         """(K,) the solid-angle pdf with which ``sample_incident`` draws direction w from point p (normal n), with
-        the light ``which`` (index among the local lights) chosen: its selection probability times its own pdf;
-        NaN where that light cannot say (``Light.mis`` None)."""
+        the light ``which`` (index among the local lights) chosen: its selection probability (``chance`` if the
+        caller has it from ``sample_incident``, else the light tree's, ``selection``) times its own pdf; NaN where
+        that light cannot say (``Light.mis`` None)."""
         out = np.full(len(p), np.nan)
         for index, light in enumerate(self.local):
             m = np.nonzero(which == index)[0]
             found = light.mis(p[m], n[m], w[m]) if len(m) else None
             if found is not None:
-                out[m] = self.selection(p[m], n[m], which[m]) * found[2]
+                out[m] = (self.selection(p[m], n[m], which[m]) if chance is None else chance[m]) * found[2]
         return out
 
     def selection(self, p: np.ndarray, n: np.ndarray, which: np.ndarray) -> np.ndarray:
