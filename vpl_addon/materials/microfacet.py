@@ -37,11 +37,12 @@ unit (K,3). ``value`` is f(v, l) cos(theta_l) per colour channel, without the ma
 from __future__ import annotations
 
 from dataclasses import dataclass, fields
-from functools import lru_cache
+from functools import cached_property, lru_cache
 
 import numpy as np
 
-from ..core.sampling import concentric_disk, dot, orthonormal_basis, stratified_2d
+from ..core.compiled import kernel
+from ..core.sampling import dot, stratified_2d
 
 MIN_ALPHA = 1e-3  # sharper lobes are treated as this rough (Cycles switches to a mirror below a^2 = 5e-7)
 MU_BAR = 1.0 / 7.0
@@ -65,9 +66,30 @@ def f82_b(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
 
 
 def fresnel(f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> np.ndarray:
-    """(K,3) F82-tint reflectance at cos ``mu`` between the view and the microfacet normal."""
-    mu = np.clip(mu, 0.0, 1.0)
-    return np.clip(schlick(f0, mu) - b * (mu * (1.0 - mu) ** 6)[:, None], 0.0, 1.0)
+    """(K,3) F82-tint reflectance at cos ``mu`` (K,) between the view and the microfacet normal (``_f82``)."""
+    f0, b, mu = _flat(f0, b, np.asarray(mu)[:, None])
+    out = np.empty(f0.shape)
+    _f82_all(f0.ravel(), b.ravel(), mu.ravel(), out.reshape(-1))
+    return out
+
+
+def _flat(*arrays) -> list[np.ndarray]:
+    """The arrays broadcast against each other, as float64 copies of their own (a kernel's inputs)."""
+    return [np.array(x, np.float64) for x in np.broadcast_arrays(*arrays)]
+
+
+@kernel
+def _f82(f0, b, mu):
+    """F82-tint reflectance of one channel: Schlick's F0 + (1 - F0)(1 - mu)^5 minus b mu (1 - mu)^6, clamped."""
+    mu = min(max(mu, 0.0), 1.0)
+    m = 1.0 - mu
+    return min(max(f0 + (1.0 - f0) * m ** 5 - b * (mu * m ** 6), 0.0), 1.0)
+
+
+@kernel
+def _f82_all(f0, b, mu, out):
+    for i in range(len(out)):
+        out[i] = _f82(f0[i], b[i], mu[i])
 
 
 def constant_reflectance_tint(colour) -> np.ndarray:
@@ -95,13 +117,30 @@ def f0_from_ior(eta: np.ndarray) -> np.ndarray:
 
 def dielectric_fresnel(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
     """Unpolarised reflectance of a smooth dielectric interface of relative IOR ``eta`` at cosine ``cos_i``
-    (Walter et al. 2007, eq. 22); 1 under total internal reflection (eta < 1)."""
-    c = np.abs(cos_i)
+    (Walter et al. 2007, eq. 22); 1 under total internal reflection (eta < 1). Broadcasts like numpy."""
+    cos_i, eta = _flat(cos_i, eta)
+    out = np.empty(cos_i.shape)
+    _dielectric_all(cos_i.ravel(), eta.ravel(), out.reshape(-1))
+    return out
+
+
+@kernel
+def _dielectric(cos_i, eta):
+    """``dielectric_fresnel`` of one cosine."""
+    c = abs(cos_i)
     g2 = eta * eta - 1.0 + c * c
-    g = np.sqrt(np.maximum(g2, 0.0))
-    a = (g - c) / np.maximum(g + c, 1e-300)
-    b = (c * (g + c) - 1.0) / np.maximum(c * (g - c) + 1.0, 1e-300)
-    return np.where(g2 > 0.0, np.clip(0.5 * a * a * (1.0 + b * b), 0.0, 1.0), 1.0)
+    if not g2 > 0.0:
+        return 1.0
+    g = np.sqrt(g2)
+    a = (g - c) / max(g + c, 1e-300)
+    b = (c * (g + c) - 1.0) / max(c * (g - c) + 1.0, 1e-300)
+    return min(max(0.5 * a * a * (1.0 + b * b), 0.0), 1.0)
+
+
+@kernel
+def _dielectric_all(cos_i, eta, out):
+    for i in range(len(out)):
+        out[i] = _dielectric(cos_i[i], eta[i])
 
 
 def specular_layer(ior: np.ndarray, level: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -124,16 +163,32 @@ def _interpolation(f0: np.ndarray | float, real: np.ndarray) -> np.ndarray:
     return np.clip((real - f0) / np.maximum(1.0 - f0, 1e-12), 0.0, 1.0)
 
 
-def dielectric_layer_fresnel(f0t: np.ndarray, eta: np.ndarray, mu: np.ndarray) -> np.ndarray:
-    """(K,3) reflectance of the dielectric layer, mix(F0 tint, 1, s), at cos ``mu`` between the view and the
-    microfacet normal (``f0t`` F0 x tint, clamped to [0, 1] by the caller)."""
-    s = _interpolation(f0_from_ior(eta), dielectric_fresnel(mu, eta))
-    return f0t + (1.0 - f0t) * s[:, None]
+@kernel
+def _layer_share(eta, mu):
+    """s of the dielectric layer's reflectance mix(F0 tint, 1, s) at cos ``mu`` between the view and the
+    microfacet normal: ``_interpolation`` of the real reflectance."""
+    f0 = ((eta - 1.0) / (eta + 1.0)) ** 2
+    return min(max((_dielectric(mu, eta) - f0) / max(1.0 - f0, 1e-12), 0.0), 1.0)
 
 
 def _lambda(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
-    cos2 = np.maximum(cos * cos, 1e-300)
-    return 0.5 * (np.sqrt(1.0 + a2 * np.maximum(1.0 / cos2 - 1.0, 0.0)) - 1.0)
+    a2, cos = _flat(a2, cos)
+    out = np.empty(a2.shape)
+    _lambda_all(a2.ravel(), cos.ravel(), out.reshape(-1))
+    return out
+
+
+@kernel
+def _lam(a2, cos):
+    """Smith's Lambda of GGX at alpha^2 ``a2`` and cos ``cos``: (sqrt(1 + a^2 tan^2) - 1) / 2."""
+    cos2 = max(cos * cos, 1e-300)
+    return 0.5 * (np.sqrt(1.0 + a2 * max(1.0 / cos2 - 1.0, 0.0)) - 1.0)
+
+
+@kernel
+def _lambda_all(a2, cos, out):
+    for i in range(len(out)):
+        out[i] = _lam(a2[i], cos[i])
 
 
 def smith_g1(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
@@ -141,51 +196,100 @@ def smith_g1(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
     return 1.0 / (1.0 + _lambda(a2, cos))
 
 
-def _d(a2: np.ndarray, cos_h: np.ndarray) -> np.ndarray:
-    return a2 / (np.pi * (1.0 + (a2 - 1.0) * cos_h * cos_h) ** 2)
-
-
 def evaluate(n, v, wl, a, f0, b):
     """(value (K,3) = F D G2 / (4 cos_v), pdf (K,) of ``sample`` choosing l): zero where either direction is
     below the shading normal."""
-    cos_v, cos_l = dot(n, v), dot(n, wl)
-    ok = (cos_v > 0.0) & (cos_l > 0.0)
-    h = v + wl
-    h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
+    k = len(wl)
+    value, pdf = np.empty((k, 3)), np.empty(k)
+    f0, b = (np.array(np.broadcast_to(x, (k, 3)), np.float64) for x in (f0, b))
+    _evaluate(*(np.ascontiguousarray(x, np.float64) for x in (n, v, wl, a)), f0, b, value, pdf)
+    return value, pdf
+
+
+@kernel
+def _ggx(n, v, l, a):
+    """At one point, toward one direction: (D G2 / (4 cos_v) (the lobe's f cos with F = 1), the pdf of
+    ``_visible_normal`` drawing l, D G1(v) / (4 cos_v), and v.h); zero where v or l is below n."""
+    cos_v = n[0] * v[0] + n[1] * v[1] + n[2] * v[2]
+    cos_l = n[0] * l[0] + n[1] * l[1] + n[2] * l[2]
+    h0, h1, h2 = v[0] + l[0], v[1] + l[1], v[2] + l[2]
+    length = max(np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), 1e-300)
+    h0, h1, h2 = h0 / length, h1 / length, h2 / length
     a2 = a * a
-    d = _d(a2, np.clip(dot(n, h), 0.0, 1.0))
-    lam_v, lam_l = _lambda(a2, cos_v), _lambda(a2, cos_l)
-    common = np.where(ok, d / (4.0 * np.maximum(cos_v, 1e-300)), 0.0)
-    value = fresnel(f0, b, dot(v, h)) * (common / (1.0 + lam_v + lam_l))[:, None]
-    return value, common / (1.0 + lam_v)
+    cos_h = min(max(n[0] * h0 + n[1] * h1 + n[2] * h2, 0.0), 1.0)
+    d = a2 / (np.pi * (1.0 + (a2 - 1.0) * cos_h * cos_h) ** 2)
+    lam_v, lam_l = _lam(a2, cos_v), _lam(a2, cos_l)
+    common = d / (4.0 * max(cos_v, 1e-300)) if cos_v > 0.0 and cos_l > 0.0 else 0.0
+    return common / (1.0 + lam_v + lam_l), common / (1.0 + lam_v), v[0] * h0 + v[1] * h1 + v[2] * h2
+
+
+@kernel
+def _evaluate(n, v, wl, a, f0, b, value, pdf):
+    for i in range(len(wl)):
+        f, pdf[i], vh = _ggx(n[i], v[i], wl[i], a[i])
+        for c in range(3):
+            value[i, c] = _f82(f0[i, c], b[i, c], vh) * f
 
 
 def sample(n, v, a, u1, u2):
     """(l, g, h): a direction l drawn from visible normals h, and g = G2 / G1(v) (K,), so that value / pdf =
     F(v.h) g. Rows whose l falls below the normal have g = 0."""
-    t, s = orthonormal_basis(n)
-    local = np.stack([dot(v, t), dot(v, s), dot(v, n)], axis=1)
-    stretched = local * np.stack([a, a, np.ones_like(a)], axis=1)
-    stretched /= np.maximum(np.linalg.norm(stretched, axis=1, keepdims=True), 1e-300)
-    lensq = stretched[:, 0] ** 2 + stretched[:, 1] ** 2
-    safe = np.maximum(np.sqrt(lensq), 1e-300)
-    t1 = np.where((lensq > 1e-14)[:, None], np.stack([-stretched[:, 1], stretched[:, 0], np.zeros_like(a)], 1)
-                  / safe[:, None], np.array([1.0, 0.0, 0.0]))
-    t2 = np.cross(stretched, t1)
-    x, y = concentric_disk(u1, u2)
-    y = (1.0 - 0.5 * (1.0 + stretched[:, 2])) * np.sqrt(np.maximum(1.0 - x * x, 0.0)) + \
-        0.5 * (1.0 + stretched[:, 2]) * y
-    z = np.sqrt(np.maximum(1.0 - x * x - y * y, 0.0))
-    hh = x[:, None] * t1 + y[:, None] * t2 + z[:, None] * stretched
-    hh = np.stack([a * hh[:, 0], a * hh[:, 1], np.maximum(hh[:, 2], 0.0)], axis=1)
-    hh /= np.maximum(np.linalg.norm(hh, axis=1, keepdims=True), 1e-300)
-    h = hh[:, :1] * t + hh[:, 1:2] * s + hh[:, 2:] * n
-    wl = 2.0 * dot(v, h)[:, None] * h - v
+    k = len(u1)
+    wl, g, h = np.empty((k, 3)), np.empty(k), np.empty((k, 3))
+    _sample(*(np.ascontiguousarray(x, np.float64) for x in (n, v, a, u1, u2)), wl, g, h)
+    return wl, g, h
+
+
+@kernel
+def _visible_normal(n, v, a, u1, u2, wl, h):
+    """Heitz's visible-normal sample at one point: writes l into ``wl`` and the microfacet normal into ``h``;
+    returns g = G2 / G1(v) (0 where l falls below n). The frame about n is ``sampling.orthonormal_basis``'s, the
+    disk point ``sampling.concentric_disk``'s."""
+    sign = 1.0 if n[2] >= 0.0 else -1.0
+    q = -1.0 / (sign + n[2])
+    p = n[0] * n[1] * q
+    t0, t1, t2 = 1.0 + sign * n[0] * n[0] * q, sign * p, -sign * n[0]
+    s0, s1, s2 = p, sign + n[1] * n[1] * q, -n[1]
+    x0 = a * (v[0] * t0 + v[1] * t1 + v[2] * t2)  # the view in the frame, stretched
+    x1 = a * (v[0] * s0 + v[1] * s1 + v[2] * s2)
+    cos_v = v[0] * n[0] + v[1] * n[1] + v[2] * n[2]
+    x2 = cos_v
+    length = max(np.sqrt(x0 * x0 + x1 * x1 + x2 * x2), 1e-300)
+    x0, x1, x2 = x0 / length, x1 / length, x2 / length
+    lensq = x0 * x0 + x1 * x1
+    if lensq > 1e-14:
+        inv = max(np.sqrt(lensq), 1e-300)
+        e0, e1, e2 = -x1 / inv, x0 / inv, 0.0
+    else:
+        e0, e1, e2 = 1.0, 0.0, 0.0
+    f0, f1, f2 = x1 * e2 - x2 * e1, x2 * e0 - x0 * e2, x0 * e1 - x1 * e0  # stretched x e
+    da, db = 2.0 * u1 - 1.0, 2.0 * u2 - 1.0
+    if abs(da) > abs(db):
+        r, phi = da, (np.pi / 4.0) * (db / da)
+    else:
+        r, phi = db, (np.pi / 2.0 - (np.pi / 4.0) * (da / db) if db != 0.0 else 0.0)
+    dx, dy = r * np.cos(phi), r * np.sin(phi)
+    dy = (1.0 - 0.5 * (1.0 + x2)) * np.sqrt(max(1.0 - dx * dx, 0.0)) + 0.5 * (1.0 + x2) * dy
+    dz = np.sqrt(max(1.0 - dx * dx - dy * dy, 0.0))
+    m0 = a * (dx * e0 + dy * f0 + dz * x0)
+    m1 = a * (dx * e1 + dy * f1 + dz * x1)
+    m2 = max(dx * e2 + dy * f2 + dz * x2, 0.0)
+    length = max(np.sqrt(m0 * m0 + m1 * m1 + m2 * m2), 1e-300)
+    m0, m1, m2 = m0 / length, m1 / length, m2 / length
+    h[0], h[1], h[2] = m0 * t0 + m1 * s0 + m2 * n[0], m0 * t1 + m1 * s1 + m2 * n[1], m0 * t2 + m1 * s2 + m2 * n[2]
+    vh = v[0] * h[0] + v[1] * h[1] + v[2] * h[2]
+    for c in range(3):
+        wl[c] = 2.0 * vh * h[c] - v[c]
     a2 = a * a
-    cos_l = dot(n, wl)
-    lam_v, lam_l = _lambda(a2, dot(n, v)), _lambda(a2, cos_l)
-    weight = np.where(cos_l > 0.0, (1.0 + lam_v) / (1.0 + lam_v + lam_l), 0.0)
-    return wl, weight, h
+    cos_l = n[0] * wl[0] + n[1] * wl[1] + n[2] * wl[2]
+    lam_v, lam_l = _lam(a2, cos_v), _lam(a2, cos_l)
+    return (1.0 + lam_v) / (1.0 + lam_v + lam_l) if cos_l > 0.0 else 0.0
+
+
+@kernel
+def _sample(n, v, a, u1, u2, wl, g, h):
+    for i in range(len(u1)):
+        g[i] = _visible_normal(n[i], v[i], a[i], u1[i], u2[i], wl[i], h[i])
 
 
 def roughness_grid() -> np.ndarray:
@@ -365,9 +469,9 @@ class GlossyLobe:
         return GlossyLobe(surface.shading_normal, view, alpha(surface.roughness), surface.specular, surface.edge,
                           weight, np.clip(surface.dielectric, 0.0, 1.0), surface.eta, layer, color)
 
-    @property
+    @cached_property
     def present(self) -> np.ndarray:
-        """(K,) bool: whether the point has either lobe."""
+        """(K,) bool: whether the point has either lobe (computed once: direct light asks per batch)."""
         return (self.weight.max(axis=1) > 0.0) | (self.layer.max(axis=1) > 0.0)
 
     def take(self, rows) -> "GlossyLobe":
@@ -377,31 +481,51 @@ class GlossyLobe:
     def concat(parts: list["GlossyLobe"]) -> "GlossyLobe":
         return GlossyLobe(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(GlossyLobe)))
 
-    def fresnel(self, vh: np.ndarray, rows: np.ndarray) -> np.ndarray:
-        """(R,3) both lobes' Fresnel at view-half cosines ``vh``, with their weights."""
-        rows = np.arange(len(self.eta))[rows]
-        out = fresnel(self.f0[rows], self.edge[rows], vh) * self.weight[rows]
-        coated = np.nonzero(self.eta[rows] != 1.0)[0]
-        if len(coated):
-            r = rows[coated]
-            out[coated] += dielectric_layer_fresnel(self.f0t[r], self.eta[r], vh[coated]) * self.layer[r]
-        return out
-
     def evaluate(self, wl: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(f cos (R,3) with the weights, pdf (R,) of ``sample``) toward directions ``wl`` (R,3) at points ``rows``."""
-        rows = np.asarray(rows)
-        n, v = self.normal[rows], self.view[rows]
-        ones = np.ones((len(wl), 3))
-        value, pdf = evaluate(n, v, wl, self.alpha[rows], ones, np.zeros_like(ones))  # F = 1: D G2 / (4 cos_v)
-        h = v + wl
-        h = h / np.maximum(np.linalg.norm(h, axis=1, keepdims=True), 1e-300)
-        return value[:, :1] * self.fresnel(dot(v, h), rows), pdf
+        rows = np.arange(len(self.eta))[rows]
+        value, pdf = np.empty((len(rows), 3)), np.empty(len(rows))
+        _lobe_evaluate(*self._arrays(), rows, np.ascontiguousarray(wl, np.float64), value, pdf)
+        return value, pdf
 
     def sample(self, u1: np.ndarray, u2: np.ndarray, rows: np.ndarray):
         """(l (R,3), f cos / pdf (R,3) with the weights, pdf (R,)) at points ``rows``."""
-        rows = np.asarray(rows)
-        n, v, a = self.normal[rows], self.view[rows], self.alpha[rows]
-        wl, g, h = sample(n, v, a, u1, u2)
-        ones = np.ones((len(wl), 3))
-        _, pdf = evaluate(n, v, wl, a, ones, np.zeros_like(ones))
-        return wl, self.fresnel(dot(v, h), rows) * g[:, None], np.where(g > 0.0, pdf, 0.0)
+        rows = np.arange(len(self.eta))[rows]
+        wl, weight, pdf = np.empty((len(rows), 3)), np.empty((len(rows), 3)), np.empty(len(rows))
+        _lobe_sample(*self._arrays(), rows, np.asarray(u1, np.float64), np.asarray(u2, np.float64), wl, weight, pdf)
+        return wl, weight, pdf
+
+    def _arrays(self):
+        return tuple(np.ascontiguousarray(getattr(self, name), np.float64) for name in
+                     ("normal", "view", "alpha", "f0", "edge", "weight", "f0t", "eta", "layer"))
+
+
+@kernel
+def _lobe_fresnel(f0, edge, weight, f0t, eta, layer, vh, c):
+    """Both lobes' Fresnel in channel c at v.h ``vh``, with their weights."""
+    out = _f82(f0[c], edge[c], vh) * weight[c]
+    if eta != 1.0:
+        out += (f0t[c] + (1.0 - f0t[c]) * _layer_share(eta, vh)) * layer[c]
+    return out
+
+
+@kernel
+def _lobe_evaluate(normal, view, alpha, f0, edge, weight, f0t, eta, layer, rows, wl, value, pdf):
+    for i in range(len(rows)):
+        r = rows[i]
+        f, pdf[i], vh = _ggx(normal[r], view[r], wl[i], alpha[r])
+        for c in range(3):
+            value[i, c] = f * _lobe_fresnel(f0[r], edge[r], weight[r], f0t[r], eta[r], layer[r], vh, c)
+
+
+@kernel
+def _lobe_sample(normal, view, alpha, f0, edge, weight, f0t, eta, layer, rows, u1, u2, wl, out, pdf):
+    h = np.empty(3)
+    for i in range(len(rows)):
+        r = rows[i]
+        g = _visible_normal(normal[r], view[r], alpha[r], u1[i], u2[i], wl[i], h)
+        _, p, _ = _ggx(normal[r], view[r], wl[i], alpha[r])
+        pdf[i] = p if g > 0.0 else 0.0
+        vh = view[r, 0] * h[0] + view[r, 1] * h[1] + view[r, 2] * h[2]
+        for c in range(3):
+            out[i, c] = _lobe_fresnel(f0[r], edge[r], weight[r], f0t[r], eta[r], layer[r], vh, c) * g
