@@ -501,12 +501,14 @@ class GlossyLobe:
 
 
 @kernel
-def _lobe_fresnel(f0, edge, weight, f0t, eta, layer, vh, c):
-    """Both lobes' Fresnel in channel c at v.h ``vh``, with their weights."""
-    out = _f82(f0[c], edge[c], vh) * weight[c]
-    if eta != 1.0:
-        out += (f0t[c] + (1.0 - f0t[c]) * _layer_share(eta, vh)) * layer[c]
-    return out
+def _lobe_fresnel(f0, edge, weight, f0t, eta, layer, vh, scale, out):
+    """out = ``scale`` x both lobes' Fresnel at v.h ``vh``, with their weights (one point's rows)."""
+    share = _layer_share(eta, vh) if eta != 1.0 else 0.0
+    for c in range(3):
+        f = _f82(f0[c], edge[c], vh) * weight[c]
+        if eta != 1.0:
+            f += (f0t[c] + (1.0 - f0t[c]) * share) * layer[c]
+        out[c] = f * scale
 
 
 @kernel
@@ -514,8 +516,7 @@ def _lobe_evaluate(normal, view, alpha, f0, edge, weight, f0t, eta, layer, rows,
     for i in range(len(rows)):
         r = rows[i]
         f, pdf[i], vh = _ggx(normal[r], view[r], wl[i], alpha[r])
-        for c in range(3):
-            value[i, c] = f * _lobe_fresnel(f0[r], edge[r], weight[r], f0t[r], eta[r], layer[r], vh, c)
+        _lobe_fresnel(f0[r], edge[r], weight[r], f0t[r], eta[r], layer[r], vh, f, value[i])
 
 
 @kernel
@@ -527,5 +528,4 @@ def _lobe_sample(normal, view, alpha, f0, edge, weight, f0t, eta, layer, rows, u
         _, p, _ = _ggx(normal[r], view[r], wl[i], alpha[r])
         pdf[i] = p if g > 0.0 else 0.0
         vh = view[r, 0] * h[0] + view[r, 1] * h[1] + view[r, 2] * h[2]
-        for c in range(3):
-            out[i, c] = _lobe_fresnel(f0[r], edge[r], weight[r], f0t[r], eta[r], layer[r], vh, c) * g
+        _lobe_fresnel(f0[r], edge[r], weight[r], f0t[r], eta[r], layer[r], vh, g, out[i])
