@@ -93,3 +93,21 @@ def test_a_constant_world_keeps_its_cosine_sampling_and_broken_maps_light_nothin
                  RenderSettings(samples=4, light_samples=4, method="ir"))
     for image in out.passes.values():
         assert np.isfinite(image).all() and image.min() >= 0.0
+
+
+def test_the_guide_table_finds_the_texel_a_search_of_the_whole_row_finds():
+    """``EnvironmentLight.sample`` looks for a column only between two guide entries: the directions are the
+    inverse CDF's (a row by the marginal, then a column by the row's conditional CDF, searched whole here)."""
+    light = EnvironmentLight(sky())
+    rng = np.random.default_rng(2)
+    u1, u2 = rng.random(50_000), rng.random(50_000)
+    u2[:64] = np.arange(64) / 64  # on the guide's own steps
+    h, w = light.texel_prob.shape
+    rows = light.texel_prob.sum(axis=1)
+    row = np.minimum(np.searchsorted(np.cumsum(rows), u1 * rows.sum(), side="right"), h - 1)
+    cdf = np.cumsum(light.texel_prob[row], axis=1) / rows[row, None]
+    col = np.minimum((cdf <= u2[:, None]).sum(axis=1), w - 1)
+    d = light.sample(u1, u2) @ light.rotation.T
+    found_col = np.floor((0.5 - np.arctan2(d[:, 1], d[:, 0]) / (2 * np.pi)) % 1.0 * w).astype(int)
+    found_row = np.floor((1.0 - np.arccos(np.clip(d[:, 2], -1, 1)) / np.pi) * h).astype(int)
+    assert (found_row == row).mean() > 0.999 and (found_col == col).mean() > 0.999  # texel edges may round over
