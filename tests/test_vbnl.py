@@ -12,6 +12,7 @@ from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodContext, MethodSettings, place
 from vpl_addon.methods.vbnl import VBNLSettings, catchment
 from vpl_addon.methods.vbnl.photon_lights import SLAB, PhotonLights
+from vpl_addon.methods.vbnl import sample_elimination
 from vpl_addon.methods.vbnl.sample_elimination import WEIGHT_EXPONENT, eliminate
 
 
@@ -63,6 +64,23 @@ def test_elimination_removes_candidates_in_the_sequential_greedy_order():
     keep, r = sequential_greedy(points, 1200)
     assert np.array_equal(np.sort(ours.keep), keep)
     assert np.allclose(ours.r_max[np.argsort(ours.keep)], r[keep])
+
+
+def test_elimination_in_slices_keeps_the_same_candidates_and_can_be_stopped(monkeypatch):
+    """Queried and removed ``STEP`` candidates at a time with a ``checkpoint`` between slices (where the viewport
+    stops it), the elimination keeps what it keeps in one go; a checkpoint that raises ends it."""
+    points = uneven_points(12_000)
+    whole = eliminate(points, 1200, np.random.default_rng(0))
+    monkeypatch.setattr(sample_elimination, "STEP", 1000)
+    calls = []
+    sliced = eliminate(points, 1200, np.random.default_rng(0), checkpoint=lambda: calls.append(1))
+    assert np.array_equal(sliced.keep, whole.keep) and np.array_equal(sliced.r_max, whole.r_max)
+    assert len(calls) == 12 + 11  # 12 slices of the query, 10,800 removals in 11
+
+    def stop():
+        raise InterruptedError
+    with pytest.raises(InterruptedError):
+        eliminate(points, 1200, np.random.default_rng(0), checkpoint=stop)
 
 
 def test_adaptive_elimination_is_blue_noise_and_keeps_the_density():

@@ -75,6 +75,11 @@ class Tracer:
             self._mesh = TriangleMesh(self._scene, tri)
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
 
+    def checkpoint(self) -> None:
+        """Nothing: a place where long work without rays (sample elimination, photon splitting) may be stopped.
+        An interruptible tracer (``progressive.Interruptible``) checks its stop flag on every call of a tracer
+        method, this one included."""
+
     def close(self):
         if self._pool is not None:
             self._pool.shutdown()

@@ -21,7 +21,7 @@ import numpy as np
 from ..core.compiled import kernel
 from ..materials.surface import bump_factor
 
-PAIRS_PER_BATCH = 1 << 20
+PAIRS_PER_BATCH = 1 << 18  # a batch's shadow rays are one tracer call: about 25 ms, what a viewport change waits for
 
 
 @dataclass

@@ -184,7 +184,8 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
             marks["light_paths"] = time.perf_counter()
         position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
         marks["candidates"] = time.perf_counter()
-        kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local)
+        kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local,
+                         checkpoint=context.tracer.checkpoint)
         lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max,
                               np.zeros((len(kept.keep), 3)))
         marks["elimination"] = time.perf_counter()
@@ -193,12 +194,12 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
         bounces = max(context.max_bounces, 1)
         if state is None:  # intensities divided by the number of paths
             traced = s.photons if len(lights) else 0
-            by_bounce = _split(lights, batches if traced else (), bounces, context.tracer.threads) / max(traced, 1)
+            by_bounce = _split(lights, batches if traced else (), bounces, context.tracer) / max(traced, 1)
         else:  # the kept photons, intensities already divided by the number of paths
             photons = state.paths.lights()
             by_bounce = _split(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
                                         for first in range(0, len(photons), POINTS_PER_BATCH)), bounces,
-                               context.tracer.threads)
+                               context.tracer)
     finally:
         tracing.shutdown(cancel_futures=True)
     lights.by_bounce = np.cumsum(by_bounce, axis=1)
@@ -233,14 +234,16 @@ def _ahead(jobs, executor, depth: int):
     return results()
 
 
-def _split(lights, batches, bounces: int, threads: int) -> np.ndarray:
+def _split(lights, batches, bounces: int, tracer) -> np.ndarray:
     """(N, bounces, 3) photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the
-    lights covering them, kept apart by bounce, each batch split over ``threads`` threads."""
+    lights covering them, kept apart by bounce, each batch split over the tracer's threads; a ``checkpoint`` of
+    the tracer after each batch."""
     by_bounce = np.zeros((len(lights), bounces, 3))
-    with ThreadPoolExecutor(threads) as pool:
+    with ThreadPoolExecutor(tracer.threads) as pool:
         for photons in batches:
             by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
-                                       bounces, pool, threads)
+                                       bounces, pool, tracer.threads)
+            tracer.checkpoint()
     return by_bounce
 
 

@@ -25,6 +25,7 @@ from scipy.spatial import cKDTree
 from ...core.compiled import kernel
 
 WEIGHT_EXPONENT = 8  # Yuksel 2015, alpha in w = (1 - d / 2r)^alpha
+STEP = 8192  # candidates queried or removed between checkpoints: a few tens of ms
 MODES = ("adaptive", "uniform", "none")
 
 
@@ -35,9 +36,11 @@ class Elimination:
 
 
 def eliminate(points: np.ndarray, count: int, rng: np.random.Generator, mode: str = "adaptive",
-              local: int = 32, neighbours: int = 40) -> Elimination:
+              local: int = 32, neighbours: int = 40, checkpoint=lambda: None) -> Elimination:
     """Keep ``count`` of ``points`` (M,3). ``mode``: adaptive (eq. 2), uniform (eq. 1) or none (a random subset,
-    the ablation of Fig. 18); ``local`` is m of eq. 2, ``neighbours`` how many nearest candidates a weight sums."""
+    the ablation of Fig. 18); ``local`` is m of eq. 2, ``neighbours`` how many nearest candidates a weight sums.
+    ``checkpoint()`` is called between slices of the work (``STEP`` candidates queried or removed): it may raise to
+    stop it (the viewport's ``Tracer.checkpoint``)."""
     if mode not in MODES:
         raise ValueError(f"unknown sample elimination {mode!r}; choose one of {', '.join(MODES)}")
     points = np.asarray(points, np.float64)
@@ -48,7 +51,10 @@ def eliminate(points: np.ndarray, count: int, rng: np.random.Generator, mode: st
     tree = cKDTree(points)
     order = tree.indices  # work in the tree's order: neighbours are close in memory
     k = int(min(max(local, neighbours) + 1, total))
-    dist, near = tree.query(points[order], k=k, workers=-1)
+    dist, near = np.empty((total, k)), np.empty((total, k), np.int64)
+    for lo in range(0, total, STEP):
+        dist[lo:lo + STEP], near[lo:lo + STEP] = tree.query(points[order[lo:lo + STEP]], k=k, workers=-1)
+        checkpoint()
     rank = np.empty(total, np.int64)
     rank[order] = np.arange(total)
     near = rank[near]  # neighbours as positions in the tree order
@@ -62,7 +68,12 @@ def eliminate(points: np.ndarray, count: int, rng: np.random.Generator, mode: st
     if mode == "none" or count == total:
         keep = np.sort(rng.choice(total, count, replace=False)) if count < total else np.arange(total)
         return Elimination(order[keep], r_max[keep])
-    kept = _greedy(dist, near, r_max, count)
+    heap = _weights(dist, near, r_max)
+    alive, size = np.ones(total, np.bool_), total
+    while size > count:
+        size = _remove(*heap, alive, size, max(count, size - STEP))
+        checkpoint()
+    kept = np.nonzero(alive)[0]
     return Elimination(order[kept], r_max[kept])
 
 
@@ -74,10 +85,11 @@ def _term(d, r):
 
 
 @kernel
-def _greedy(dist, near, r_max, count):
-    """Positions of the ``count`` survivors of Yuksel's greedy elimination; ``dist``/``near`` (M,k) are each
-    candidate's nearest candidates (itself among them, skipped). Candidate i's weight sums ``_term`` over its
-    list; removing j lowers it by j's term. The heaviest goes first (``_sift_down`` keeps the max-heap)."""
+def _weights(dist, near, r_max):
+    """Yuksel's greedy elimination set up: each candidate's weight (``_term`` summed over its list ``dist``/``near``
+    (M,k) of nearest candidates, itself among them and skipped), who counts whom (removing j lowers the weight of
+    every i whose list holds j by j's term: ``listed_by``/``listed_term`` from ``start[j]``) and the max-heap of
+    the weights (``key``, ``ids``). Returns (weight, start, listed_by, listed_term, key, ids)."""
     total, k = near.shape
     weight = np.zeros(total)
     start = np.zeros(total + 1, np.int64)
@@ -89,7 +101,7 @@ def _greedy(dist, near, r_max, count):
                 start[near[i, q] + 1] += 1
     start = np.cumsum(start)
     listed_by, listed_term, fill = np.empty(start[-1], np.int64), np.empty(start[-1]), start[:-1].copy()
-    for i in range(total):  # who counts whom: removing j lowers the weight of every i whose list holds j
+    for i in range(total):
         for q in range(k):
             t = _term(dist[i, q], r_max[i])
             j = near[i, q]
@@ -99,11 +111,17 @@ def _greedy(dist, near, r_max, count):
     key, ids = weight.copy(), np.arange(total)
     for pos in range(total // 2 - 1, -1, -1):
         _sift_down(key, ids, total, pos)
-    alive = np.ones(total, np.bool_)
-    size = total
-    while size > count:
+    return weight, start, listed_by, listed_term, key, ids
+
+
+@kernel
+def _remove(weight, start, listed_by, listed_term, key, ids, alive, size, until):
+    """Removes the heaviest candidate until ``until`` of the heap's ``size`` remain (``alive`` marks them) and
+    returns ``until``: a popped candidate whose weight dropped since it was pushed goes back with its current
+    weight, so the first popped with a current weight is the heaviest."""
+    while size > until:
         i = ids[0]
-        if key[0] > weight[i]:  # its weight dropped since it was pushed: back in with the current one
+        if key[0] > weight[i]:
             key[0] = weight[i]
         else:
             alive[i] = False
@@ -112,7 +130,7 @@ def _greedy(dist, near, r_max, count):
             for e in range(start[i], start[i + 1]):
                 weight[listed_by[e]] -= listed_term[e]
         _sift_down(key, ids, size, 0)
-    return np.nonzero(alive)[0]
+    return size
 
 
 @kernel
