@@ -207,12 +207,12 @@ def evaluate(n, v, wl, a, f0, b):
 
 
 @kernel
-def _ggx(n, v, l, a):
-    """At one point, toward one direction: (D G2 / (4 cos_v) (the lobe's f cos with F = 1), the pdf of
-    ``_visible_normal`` drawing l, D G1(v) / (4 cos_v), and v.h); zero where v or l is below n."""
+def _ggx(n, v, wl, a):
+    """At one point, toward one direction wl: (D G2 / (4 cos_v) (the lobe's f cos with F = 1), the pdf of
+    ``_visible_normal`` drawing wl, D G1(v) / (4 cos_v), and v.h); zero where v or wl is below n."""
     cos_v = n[0] * v[0] + n[1] * v[1] + n[2] * v[2]
-    cos_l = n[0] * l[0] + n[1] * l[1] + n[2] * l[2]
-    h0, h1, h2 = v[0] + l[0], v[1] + l[1], v[2] + l[2]
+    cos_l = n[0] * wl[0] + n[1] * wl[1] + n[2] * wl[2]
+    h0, h1, h2 = v[0] + wl[0], v[1] + wl[1], v[2] + wl[2]
     length = max(np.sqrt(h0 * h0 + h1 * h1 + h2 * h2), 1e-300)
     h0, h1, h2 = h0 / length, h1 / length, h2 / length
     a2 = a * a

@@ -15,9 +15,9 @@ reflected light: its direct light plus what the VPLs bring it straight (the call
 from z through its diffuse lobe to find z's own light over metal (a wall lit by a bright patch the metal floor
 throws, seen in that floor). A diffuse hit straight from a diffuse vertex is the gather's own (the VPLs stand for
 it), so it is not counted, and the path goes no further there. Every vertex past the start goes on by Russian
-roulette on its throughput (``vertices.roulette``), as Cycles' paths do. This is the extension the photon lights' renderer makes
-at metal (``methods.vbnl.virtual_light_sampling``, Li et al. 2022 sec. 4), with the VPL gather where that one samples
-its lights.
+roulette on its throughput (``vertices.roulette``), as Cycles' paths do. This is the extension the photon lights'
+renderer makes at metal (``methods.vbnl.virtual_light_sampling``, Li et al. 2022 sec. 4), with the VPL gather where
+that one samples its lights.
 
 Bounces are counted as Cycles counts them (direct light at the start point is 0): a vertex k steps from the start
 brings direct light of k bounces, the VPLs there light of at least k + 1; what the scene's bounce limit excludes is
