@@ -26,13 +26,10 @@ INDIRECT = "Diffuse Indirect"
 
 
 def _next(view, after=None, step=None, timeout=120.0):
-    end = time.perf_counter() + timeout
-    while time.perf_counter() < end:
-        frame = view.frame
-        if frame is not None and (after is None or frame.number > after.number) and step in (None, frame.step):
-            return frame
-        time.sleep(0.002)
-    raise RuntimeError(f"no image in {timeout} s: {view.status}")
+    frame = view.next_frame(after, step, timeout)
+    if frame is None:
+        raise RuntimeError(f"no image in {timeout} s: {view.status}")
+    return frame
 
 
 def _moved(camera, dx):

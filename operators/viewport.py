@@ -9,6 +9,7 @@ view with non-finite transforms, a scene that cannot be extracted) keeps the las
 """
 from __future__ import annotations
 
+import time
 from dataclasses import replace
 
 import numpy as np
@@ -121,6 +122,18 @@ class Viewport:
         self.scene = replace(self.scene, camera=camera)
         self.renderer.start(self.scene, *self._settings, passes=self.passes)
         return True
+
+    def next_frame(self, after=None, step: str | None = None, timeout: float = 120.0):
+        """The first image newer than ``after`` (and made by ``step``, "preview" or "refine"), waiting up to
+        ``timeout`` seconds for it; None if none came. How a headless driver (tests, bench/viewport.py) follows
+        the refinement that ``view_draw`` polls."""
+        end = time.perf_counter() + timeout
+        while time.perf_counter() < end:
+            frame = self.frame
+            if frame is not None and (after is None or frame.number > after.number) and step in (None, frame.step):
+                return frame
+            time.sleep(0.002)
+        return None
 
     def _refuse(self, problem: str) -> bool:
         self._problem = problem

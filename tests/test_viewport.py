@@ -53,13 +53,9 @@ def viewport(ext):
 
 def _next_frame(view, after=None, step=None, timeout=120.0):
     """The first image of ``view`` newer than ``after`` (and made by ``step``), waiting for it."""
-    end = time.perf_counter() + timeout
-    while time.perf_counter() < end:
-        frame = view.frame
-        if frame is not None and (after is None or frame.number > after.number) and step in (None, frame.step):
-            return frame
-        time.sleep(0.002)
-    raise AssertionError(f"no image in {timeout} s: {view.status}")
+    frame = view.next_frame(after, step, timeout)
+    assert frame is not None, f"no image in {timeout} s: {view.status}"
+    return frame
 
 
 def _moved(camera, dx=0.05):

@@ -67,15 +67,16 @@ def f82_b(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
 
 def fresnel(f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> np.ndarray:
     """(K,3) F82-tint reflectance at cos ``mu`` (K,) between the view and the microfacet normal (``_f82``)."""
-    f0, b, mu = _flat(f0, b, np.asarray(mu)[:, None])
-    out = np.empty(f0.shape)
-    _f82_all(f0.ravel(), b.ravel(), mu.ravel(), out.reshape(-1))
+    return _each(_f82_all, f0, b, np.asarray(mu)[:, None])
+
+
+def _each(loop, *arrays) -> np.ndarray:
+    """A scalar kernel over numpy arrays: ``loop(*flat inputs, flat output)`` on the arrays broadcast against
+    each other (float64 copies of their own), the output in their shape."""
+    arrays = [np.array(x, np.float64) for x in np.broadcast_arrays(*arrays)]
+    out = np.empty(arrays[0].shape)
+    loop(*(x.reshape(-1) for x in arrays), out.reshape(-1))
     return out
-
-
-def _flat(*arrays) -> list[np.ndarray]:
-    """The arrays broadcast against each other, as float64 copies of their own (a kernel's inputs)."""
-    return [np.array(x, np.float64) for x in np.broadcast_arrays(*arrays)]
 
 
 @kernel
@@ -118,10 +119,7 @@ def f0_from_ior(eta: np.ndarray) -> np.ndarray:
 def dielectric_fresnel(cos_i: np.ndarray, eta: np.ndarray) -> np.ndarray:
     """Unpolarised reflectance of a smooth dielectric interface of relative IOR ``eta`` at cosine ``cos_i``
     (Walter et al. 2007, eq. 22); 1 under total internal reflection (eta < 1). Broadcasts like numpy."""
-    cos_i, eta = _flat(cos_i, eta)
-    out = np.empty(cos_i.shape)
-    _dielectric_all(cos_i.ravel(), eta.ravel(), out.reshape(-1))
-    return out
+    return _each(_dielectric_all, cos_i, eta)
 
 
 @kernel
@@ -172,10 +170,7 @@ def _layer_share(eta, mu):
 
 
 def _lambda(a2: np.ndarray, cos: np.ndarray) -> np.ndarray:
-    a2, cos = _flat(a2, cos)
-    out = np.empty(a2.shape)
-    _lambda_all(a2.ravel(), cos.ravel(), out.reshape(-1))
-    return out
+    return _each(_lambda_all, a2, cos)
 
 
 @kernel
