@@ -11,6 +11,7 @@ from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import AreaLight, EmissiveTriangles, LightSet, PointLight, SpotLight, SunLight
 from vpl_addon.lights.direct import diffuse_direct
+from vpl_addon.lights.light_set import _distinct
 from vpl_addon.lights.light_tree import FLOOR, LightTree
 from vpl_addon.paths.gbuffer import GBuffer
 from vpl_addon.render import RenderSettings, render
@@ -131,3 +132,13 @@ def test_glossy_direct_of_many_lights_equals_the_sum_of_each_lights_own():
     together = shine(lights, 0)
     alone = sum(shine([light], 1 + i) for i, light in enumerate(lights))
     assert together.mean() == pytest.approx(alone.mean(), rel=0.01)
+
+
+def test_distinct_owners_are_numpy_unique_with_the_inverse():
+    """``LightSet.sample_incident``'s per-light points: one pass over sorted owners, numpy's unique otherwise."""
+    rng = np.random.default_rng(0)
+    for values in (np.sort(rng.integers(0, 50, 1000)), rng.integers(0, 50, 1000), np.zeros(0, np.int64),
+                   np.array([3])):
+        points, at = _distinct(values)
+        expected = np.unique(values, return_inverse=True)
+        assert np.array_equal(points, expected[0]) and np.array_equal(at, expected[1])

@@ -81,7 +81,7 @@ class LightSet:
         ends = np.cumsum(counts)
         for index in np.nonzero(counts)[0]:
             m = order[ends[index] - counts[index]:ends[index]]
-            points, at = np.unique(owner[m], return_inverse=True)  # per-point work only where the light is chosen
+            points, at = _distinct(owner[m])  # per-point work only where the light is chosen
             out = self.local[index].sample_incident(p[points], n[points], u1[m], u2[m], at)
             wi[m], dist[m], weight[m] = out[0], out[1], out[2] / prob[m, None]
             if len(out) == 4:
@@ -108,6 +108,16 @@ class LightSet:
         if len(self.local) <= 1:
             return np.ones(len(p))
         return self.tree.probability(p, n, which)
+
+
+def _distinct(values: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``np.unique(values, return_inverse=True)``, in one pass where the values come sorted (a light's samples keep
+    their points' order: the stable sort by light keeps the ascending owners of ``direct_light``'s batches)."""
+    if len(values) and np.all(values[1:] >= values[:-1]):
+        first = np.ones(len(values), bool)
+        first[1:] = values[1:] != values[:-1]
+        return values[first], np.cumsum(first) - 1
+    return np.unique(values, return_inverse=True)
 
 
 def _normalized(weights: np.ndarray) -> np.ndarray:
