@@ -25,7 +25,8 @@ Glossy surfaces along the path: the photon lights hold diffusely reflected light
 metal, and none stores a directional emission profile), so a hit y with a metallic lobe always extends the camera
 path through that lobe (next-event estimation with the lobe, and a sample pair one level deeper); the photons that
 lit the walls via metal were traced through it (``paths.light_paths``). With no diffuse surface in the scene at all
-there are no lights, and nothing indirect is rendered.
+there are no lights, and nothing indirect is rendered. Every extended vertex goes on by Russian roulette on its
+throughput (``paths.vertices.roulette``), which stops most paths through a faint clear coat early.
 """
 from __future__ import annotations
 
@@ -136,8 +137,8 @@ def _extended(y, rows, owner, carried, mean_share, light_set, tracer, rng, out):
     """Camera path extension (eq. 6-9) at the BSDF samples' hits ``rows`` of ``y`` (``owner``, ``carried`` and
     ``mean_share`` given per hit): what the lights leave of the diffuse part, (1 - mean w_v), comes from the path
     continued at y, its direct light added to ``out`` now (next-event estimation); a metallic lobe at y is not in
-    the lights at all and always continues. Both go on by Russian roulette (``paths.vertices.roulette``). Returns
-    the vertices of the next level."""
+    the lights at all and always continues. Either goes on by Russian roulette on its throughput
+    (``paths.vertices.roulette``). Returns the vertices of the next level."""
     carry = carried[rows] * (1.0 - mean_share[rows])[:, None] * y.albedo[rows]
     go, boost = roulette(carry, rng)
     following = [PathVertices(y.take(rows[go]), owner[rows[go]], carry[go] * boost[:, None])]
