@@ -111,6 +111,7 @@ def constant_reflectance_tint(colour) -> np.ndarray:
     return (lo + hi) / 2
 
 
+@kernel
 def f0_from_ior(eta: np.ndarray) -> np.ndarray:
     """Normal-incidence reflectance ((eta - 1) / (eta + 1))^2 of a dielectric of relative IOR ``eta``."""
     return ((eta - 1.0) / (eta + 1.0)) ** 2
@@ -165,7 +166,7 @@ def _interpolation(f0: np.ndarray | float, real: np.ndarray) -> np.ndarray:
 def _layer_share(eta, mu):
     """s of the dielectric layer's reflectance mix(F0 tint, 1, s) at cos ``mu`` between the view and the
     microfacet normal: ``_interpolation`` of the real reflectance."""
-    f0 = ((eta - 1.0) / (eta + 1.0)) ** 2
+    f0 = f0_from_ior(eta)
     return min(max((_dielectric(mu, eta) - f0) / max(1.0 - f0, 1e-12), 0.0), 1.0)
 
 
