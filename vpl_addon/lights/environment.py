@@ -1,8 +1,9 @@
 """The world as an equirectangular environment map (Blender's Environment Texture on the Background), sampled by
 importance: a piecewise-constant 2D distribution over the texels in proportion to luminance x sin(theta), the
 texel's solid angle (Pharr, Jakob, Humphreys, *Physically Based Rendering* 3rd ed., sec. 14.2.4: marginal over
-rows, conditional within a row), each texel weighted by the brightest of its neighbours since the radiance is
-looked up bilinearly and carries a texel's light into them. A tenth of the probability is spread in proportion to
+rows, conditional within a row). The radiance is looked up bilinearly, which carries a texel's light into its
+neighbours, so a texel's weight (``_reach``) mixes the light the lookup gives over it with the brightest of its
+neighbours. A tenth of the probability is spread in proportion to
 solid angle alone, so every direction has a pdf > 0.
 
 Directions follow Cycles' equirectangular convention (``kernel/geom`` ``direction_to_equirectangular``): for the
@@ -96,12 +97,25 @@ class EnvironmentLight(Light):
 
 
 def _reach(lum):
-    """(h,w) the largest luminance of each texel's 3 x 3 neighbourhood (around in u, clamped in v): the bilinear
-    lookup carries a texel's light into its neighbours, so they are sampled as the brightest texel they see."""
+    """(h,w) a texel's weight for sampling: an even mixture (defensive sampling) of two measures of the light the
+    bilinear lookup gives over it, each normalised.
+
+    * Its mean over the texel: 1/8, 3/4, 1/8 of the texel before, itself and after, along u (around) and v (clamped).
+      A small bright source (the sun of a sky) keeps its probability in its own texel.
+    * The largest luminance of its 3 x 3 neighbourhood, a bound of the lookup anywhere in the texel. Light a texel
+      carries into its neighbours is never sampled far below its share, so the ratio of light to pdf stays smooth
+      where the stratified light samples of a pixel can use it.
+
+    ``Diffuse Direct`` rMAE against Cycles at 1024 spp, 64 camera x 2 light samples (``tests/test_environment_cycles``,
+    ``tests/test_world_bake``), bound alone / mean alone / mixture: a 2 x 2-texel sun in a 128 x 64 map 0.021 /
+    0.043 / 0.021; Cycles' sky texture baked 0.060 / 0.038 / 0.035."""
+    mean = 0.125 * np.roll(lum, 1, axis=1) + 0.75 * lum + 0.125 * np.roll(lum, -1, axis=1)
+    mean = 0.125 * np.concatenate([mean[:1], mean[:-1]]) + 0.75 * mean + 0.125 * np.concatenate([mean[1:], mean[-1:]])
     padded = np.pad(lum, ((1, 1), (0, 0)), mode="edge")
     padded = np.concatenate([padded[:, -1:], padded, padded[:, :1]], axis=1)
     h, w = lum.shape
-    return np.max([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)], axis=0)
+    bound = np.max([padded[i:i + h, j:j + w] for i in range(3) for j in range(3)], axis=0)
+    return 0.5 * mean / max(mean.sum(), 1e-300) + 0.5 * bound / max(bound.sum(), 1e-300)
 
 
 @kernel
