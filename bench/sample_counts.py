@@ -1,0 +1,88 @@
+"""Camera and light samples per pixel for the best picture per second (issue 23: "camera/light sample counts chosen
+by the bench for the best error at equal time rather than fixed"; issue 26: direct light is most of a default render).
+
+Each scene renders with its own settings (the default method and its budget), denoised as F12 does, over a grid of
+camera samples x light samples per camera sample, for several seeds; a row gives the mean wall time of ``render`` and
+the mean rMAE of Combined against the scene's converged Cycles reference, denoised and as rendered (``Noisy Image``).
+
+    .venv/bin/python bench/sample_counts.py [cornell_area,cornell_sun,...] [--samples 16,64] [--light-samples 1,2,4,8]
+        [--pairs 16,64] [--seeds 2] [--percentage 50]
+
+A name is an example scene (``example_blends/NAME.blend``, committed reference) or a converted scene
+(``scenes/NAME.blend``, whose reference at ``--percentage`` is rendered once and cached as the bench does).
+"""
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import sys
+
+import numpy as np
+
+from vbnl_stages import ROOT, load_scene
+
+
+def blend_path(name: str) -> str:
+    for folder in ("example_blends", "scenes"):
+        path = ROOT / folder / f"{name}.blend"
+        if path.exists():
+            return str(path)
+    raise SystemExit(f"no scene {name!r} in example_blends/ or scenes/")
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("scenes", nargs="?", default="cornell_area,cornell_point,cornell_sun,cornell_textured,corridor")
+    ap.add_argument("--samples", default="4,16,64", help="camera samples per pixel, comma-separated")
+    ap.add_argument("--light-samples", default="1,2,4,8", help="light samples per camera sample, comma-separated")
+    ap.add_argument("--pairs", default=None, help="vbnl's sample pairs per pixel, comma-separated (default: the "
+                    "scene's)")
+    ap.add_argument("--seeds", type=int, default=2)
+    ap.add_argument("--percentage", type=int, default=None, help="render (and reference) resolution percentage")
+    ap.add_argument("--reference-samples", type=int, default=1024)
+    args = ap.parse_args(argv)
+    print("| scene | camera x light samples | vbnl pairs | seconds | rMAE denoised | rMAE as rendered |")
+    print("| --- | --- | --- | --- | --- | --- |")
+    for name in args.scenes.split(","):
+        blend = blend_path(name)
+        load_scene(blend)  # registers the extension as ``vpl_gi``
+        import bpy
+        from vpl_gi.bench.runner import Options, engine_run, reference_for
+        from vpl_gi.operators.extract import extract
+        from vpl_gi.vpl_addon.core import passes as P
+        from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask, errors
+        from vpl_gi.vpl_addon.render import render
+        options = Options([], [], {}, "")
+        pct = None if args.percentage in (None, bpy.context.scene.render.resolution_percentage) else args.percentage
+        reference, _ = reference_for(blend, pct, options.reference_dir, options.cache_dir, args.reference_samples,
+                                     print)
+        bpy.ops.wm.open_mainfile(filepath=blend)
+        if pct is not None:
+            bpy.context.scene.render.resolution_percentage = pct
+        scene, _ = extract(bpy.context.evaluated_depsgraph_get())
+        reference = reference[P.COMBINED]
+        mask = coverage_mask(reference[..., 3], reference.shape[:2])
+        base = dataclasses.replace(bpy.context.scene.vpl_gi.render_settings((P.COMBINED, P.NOISY_IMAGE)),
+                                   denoise=True)
+        render(scene, dataclasses.replace(base, samples=1, light_samples=1))  # warm-up: kernels, caches
+        vbnl = base.placement.vbnl
+        grid = [(s, n, p) for s in map(int, args.samples.split(",")) for n in map(int, args.light_samples.split(","))
+                for p in (map(int, args.pairs.split(",")) if args.pairs else [vbnl.sampling.samples])]
+        for samples, light_samples, pairs in grid:
+            placement = dataclasses.replace(base.placement, vbnl=dataclasses.replace(
+                vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=pairs)))
+            rows = []
+            for seed in range(args.seeds):
+                settings = dataclasses.replace(base, samples=samples, light_samples=light_samples, seed=seed,
+                                               placement=placement)
+                wall, result, _ = engine_run(scene, settings)
+                rows.append((wall, errors(result.passes[P.COMBINED], reference, mask)["rmae"],
+                             errors(result.passes[P.NOISY_IMAGE], reference, mask)["rmae"]))
+            wall, denoised, noisy = np.mean(rows, axis=0)
+            print(f"| {name} | {samples} x {light_samples} | {pairs} | {wall:.2f} | {denoised:.4f} | {noisy:.4f} |",
+                  flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
