@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .compiled import kernel
+from .rows import take_fields
 
 ULP_OFFSET = 16.0  # float32 steps along the normal; Waechter-Binder's 256 moves a point 2 m at 1e5 m from 0
 CHUNK = 1 << 16  # rays per embree call: large enough to amortise Python, small enough to share across threads
@@ -44,7 +45,7 @@ class Hits:
         return self.prim >= 0
 
     def take(self, index) -> "Hits":
-        return Hits(self.prim[index], self.t[index], self.u[index], self.v[index])
+        return take_fields(self, index)
 
     @staticmethod
     def concat(parts: list["Hits"]) -> "Hits":

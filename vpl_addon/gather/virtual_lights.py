@@ -12,6 +12,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from ..core.rows import take_fields
+
 STANDARD, REVERSE = 0, 1
 
 
@@ -35,7 +37,7 @@ class VirtualLights:
         return VirtualLights(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(VirtualLights)))
 
     def take(self, index) -> "VirtualLights":
-        return VirtualLights(*(getattr(self, f.name)[index] for f in fields(VirtualLights)))
+        return take_fields(self, index)
 
     def scaled(self, factor) -> "VirtualLights":
         """The same lights with intensities multiplied by a scalar or a per-light factor."""

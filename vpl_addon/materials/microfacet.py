@@ -42,6 +42,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ..core.compiled import kernel
+from ..core.rows import take_fields
 from ..core.sampling import dot, stratified_2d
 
 MIN_ALPHA = 1e-3  # sharper lobes are treated as this rough (Cycles switches to a mirror below a^2 = 5e-7)
@@ -471,7 +472,7 @@ class GlossyLobe:
         return (self.weight.max(axis=1) > 0.0) | (self.layer.max(axis=1) > 0.0)
 
     def take(self, rows) -> "GlossyLobe":
-        return GlossyLobe(*(getattr(self, f.name)[rows] for f in fields(GlossyLobe)))
+        return take_fields(self, rows)
 
     @staticmethod
     def concat(parts: list["GlossyLobe"]) -> "GlossyLobe":

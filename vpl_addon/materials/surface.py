@@ -20,6 +20,7 @@ import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
+from ..core.rows import take_fields
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
@@ -56,7 +57,7 @@ class Surface:
         return len(self.prim)
 
     def take(self, rows) -> "Surface":
-        return Surface(*(getattr(self, f.name)[rows] for f in fields(Surface)))
+        return take_fields(self, rows)
 
     @staticmethod
     def concat(parts: list["Surface"]) -> "Surface":
