@@ -99,6 +99,8 @@ def render_once(args) -> None:
     settings = bpy.context.scene.vpl_gi.render_settings(("Combined",))
     if args.method:
         settings.method = args.method
+    if args.block_pixels:
+        settings.block_pixels = args.block_pixels
     render(scene, RenderSettings(samples=1, light_samples=1, method=settings.method))  # kernels loaded
     with PeakMemory() as memory:
         t0 = time.perf_counter()
@@ -121,6 +123,7 @@ def main():
     ap.add_argument("scene", nargs="?", default=str(ROOT / "example_blends" / "cornell_area.blend"))
     ap.add_argument("--size", help="render at WxH pixels instead of the scene's resolution, e.g. 1920x1080")
     ap.add_argument("--method", help="placement method (default: the scene's)")
+    ap.add_argument("--block-pixels", type=int, help="pixels per block (default: the engine's)")
     ap.add_argument("--functions", action="store_true", help="profile the run with py-spy")
     ap.add_argument("--top", type=int, default=25)
     ap.add_argument("--rate", type=int, default=100, help="py-spy's samples per second (it falls behind at 200 "
@@ -132,7 +135,8 @@ def main():
         return
     spy = pathlib.Path(sys.executable).with_name("py-spy")
     command = [sys.executable, __file__, args.scene, *(["--size", args.size] if args.size else []),
-               *(["--method", args.method] if args.method else [])]
+               *(["--method", args.method] if args.method else []),
+               *(["--block-pixels", str(args.block_pixels)] if args.block_pixels else [])]
     with tempfile.TemporaryDirectory() as folder:
         raw = os.path.join(folder, "samples.txt")
         subprocess.run([str(spy), "record", "--rate", str(args.rate), "--format", "raw", "--output", raw, "--",
