@@ -244,3 +244,24 @@ def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
     inner = np.abs(lights.position[:, :2]).max(axis=1) < 1.5
     assert np.median(lights.radiance[inner, 0] / expected[inner]) == pytest.approx(1.0, abs=0.05)
     assert np.isfinite(lights.radiance).all() and (lights.radiance >= 0).all()
+
+
+def test_fewer_candidates_than_pixels_come_from_the_whole_image():
+    """A camera between a floor and a low ceiling, looking up: each candidate lands on the floor near the pixel
+    whose camera path found it. With a quarter as many candidates as pixels they come from all over the image;
+    taking the first found in pixel order had kept the top quarter of its rows."""
+    from vpl_addon.core.camera import Camera, view_window
+    from vpl_addon.core.scene import Scene
+    from vpl_addon.methods.vbnl import candidates
+    quad = np.array([[[-2, -2, 0], [2, -2, 0], [2, 2, 0]], [[-2, -2, 0], [2, 2, 0], [-2, 2, 0]]], float)
+    up = np.diag([1.0, -1.0, -1.0, 1.0])
+    up[:3, 3] = [0, 0, 0.1]
+    camera = Camera(up, 64, 64, view_window(64, 64, orthographic=True, ortho_scale=3.0), orthographic=True,
+                    clip_start=1e-3)
+    scene = Scene.build(np.concatenate([quad, quad + [0, 0, 0.2]]), plane_scene().materials, [], camera)
+    tracer = Tracer(scene.triangles)
+    position, _ = candidates(scene, tracer, 1024, np.random.default_rng(0))
+    tracer.close()
+    assert len(position) == 1024 and np.abs(position[:, 2]).max() < 1e-6
+    for axis in (0, 1):
+        assert 0.4 < np.mean(position[:, axis] > 0.0) < 0.6
