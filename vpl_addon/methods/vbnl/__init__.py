@@ -85,8 +85,8 @@ def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
 
 def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int = 8):
     """(positions, normals) of ``count`` points seen from camera-path ends (sec. 3.1), the same number of camera
-    samples in every pixel (or in a random subset of the pixels, below); normals face the point that found them. Rays that find nothing (an open scene) are
-    made up by further passes over the image, at most ``passes`` in all.
+    samples in every pixel (or in a random subset of the pixels, below); normals face the point that found them.
+    Rays that find nothing (an open scene) are made up by further passes over the image, at most ``passes`` in all.
 
     With fewer candidates to find than pixels, a pass takes the pixels in a random order and stops when it has
     found enough: a random subset of the image. Taking the first ``count`` found in pixel order had kept the top
