@@ -43,7 +43,7 @@ def heap_for_renders() -> bool:
         return False
     try:
         libc = ctypes.CDLL(None)
-        return bool(libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD) and libc.mallopt(M_TRIM_THRESHOLD,
-                                                                                   TRIM_THRESHOLD))
+        mmap = libc.mallopt(M_MMAP_THRESHOLD, MMAP_THRESHOLD)
+        return bool(mmap and libc.mallopt(M_TRIM_THRESHOLD, TRIM_THRESHOLD))
     except (AttributeError, OSError, TypeError):  # not glibc
         return False
