@@ -24,3 +24,8 @@ def take(array: np.ndarray, rows) -> np.ndarray:
 def take_fields(record, rows):
     """A record of the same type holding ``rows`` of each of its fields."""
     return type(record)(*(take(getattr(record, f.name), rows) for f in fields(record)))
+
+
+def concat_fields(kind, parts):
+    """A record of type ``kind`` holding the rows of ``parts`` (records of that type) one after another."""
+    return kind(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(kind)))

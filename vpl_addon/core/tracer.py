@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .compiled import kernel
-from .rows import take_fields
+from .rows import concat_fields, take_fields
 
 ULP_OFFSET = 16.0  # float32 steps along the normal; Waechter-Binder's 256 moves a point 2 m at 1e5 m from 0
 CHUNK = 1 << 16  # rays per embree call: large enough to amortise Python, small enough to share across threads
@@ -49,7 +49,7 @@ class Hits:
 
     @staticmethod
     def concat(parts: list["Hits"]) -> "Hits":
-        return Hits(*(np.concatenate([getattr(p, k) for p in parts]) for k in ("prim", "t", "u", "v")))
+        return concat_fields(Hits, parts)
 
 
 class Tracer:

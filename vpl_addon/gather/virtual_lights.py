@@ -8,11 +8,11 @@ resampling weight), so the light a VPL sends to a white Lambertian receiver x is
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.rows import take_fields
+from ..core.rows import concat_fields, take_fields
 
 STANDARD, REVERSE = 0, 1
 
@@ -34,7 +34,7 @@ class VirtualLights:
     @staticmethod
     def concat(parts: list["VirtualLights"]) -> "VirtualLights":
         parts = [p for p in parts if len(p)] or [VirtualLights.empty()]
-        return VirtualLights(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(VirtualLights)))
+        return concat_fields(VirtualLights, parts)
 
     def take(self, index) -> "VirtualLights":
         return take_fields(self, index)

@@ -36,13 +36,13 @@ unit (K,3). ``value`` is f(v, l) cos(theta_l) per colour channel, without the ma
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from functools import cached_property, lru_cache
 
 import numpy as np
 
 from ..core.compiled import kernel
-from ..core.rows import take_fields
+from ..core.rows import concat_fields, take_fields
 from ..core.sampling import dot, stratified_2d
 
 MIN_ALPHA = 1e-3  # sharper lobes are treated as this rough (Cycles switches to a mirror below a^2 = 5e-7)
@@ -476,7 +476,7 @@ class GlossyLobe:
 
     @staticmethod
     def concat(parts: list["GlossyLobe"]) -> "GlossyLobe":
-        return GlossyLobe(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(GlossyLobe)))
+        return concat_fields(GlossyLobe, parts)
 
     def evaluate(self, wl: np.ndarray, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """(f cos (R,3) with the weights, pdf (R,) of ``sample``) toward directions ``wl`` (R,3) at points ``rows``."""

@@ -14,13 +14,13 @@ keeps 1 - max(A) of its weight, A the layer's albedo toward the viewer (``microf
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
-from ..core.rows import take_fields
+from ..core.rows import concat_fields, take_fields
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
@@ -61,7 +61,7 @@ class Surface:
 
     @staticmethod
     def concat(parts: list["Surface"]) -> "Surface":
-        return Surface(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(Surface)))
+        return concat_fields(Surface, parts)
 
 
 def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
