@@ -19,7 +19,7 @@ import sys
 
 import numpy as np
 
-from vbnl_stages import ROOT, load_scene
+from vbnl_stages import ROOT, load_scene, register_extension
 
 
 def blend_path(name: str) -> str:
@@ -45,21 +45,18 @@ def main(argv=None) -> int:
     print("| --- | --- | --- | --- | --- | --- |")
     for name in args.scenes.split(","):
         blend = blend_path(name)
-        load_scene(blend)  # registers the extension as ``vpl_gi``
+        register_extension()
         import bpy
         from vpl_gi.bench.runner import Options, engine_run, reference_for
-        from vpl_gi.operators.extract import extract
         from vpl_gi.vpl_addon.core import passes as P
         from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask, errors
         from vpl_gi.vpl_addon.render import render
         options = Options([], [], {}, "")
+        bpy.ops.wm.open_mainfile(filepath=blend)
         pct = None if args.percentage in (None, bpy.context.scene.render.resolution_percentage) else args.percentage
         reference, _ = reference_for(blend, pct, options.reference_dir, options.cache_dir, args.reference_samples,
                                      print)
-        bpy.ops.wm.open_mainfile(filepath=blend)
-        if pct is not None:
-            bpy.context.scene.render.resolution_percentage = pct
-        scene, _ = extract(bpy.context.evaluated_depsgraph_get())
+        scene = load_scene(blend, pct)
         reference = reference[P.COMBINED]
         mask = coverage_mask(reference[..., 3], reference.shape[:2])
         base = dataclasses.replace(bpy.context.scene.vpl_gi.render_settings((P.COMBINED, P.NOISY_IMAGE)),

@@ -25,15 +25,24 @@ ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 
-def load_scene(path):
-    """The engine's Scene of a .blend, extracted through bpy (the extension loaded as ``vpl_gi``)."""
+def register_extension():
+    """The extension loaded into bpy as ``vpl_gi`` (once): the scenes' settings (film, bounces) are its."""
     from vpl_addon.__main__ import extension_package
     package = extension_package()
     import bpy
-    if not hasattr(bpy.types.Scene, "vpl_gi"):  # the scene's settings (film, bounces) are read from the extension's
+    if not hasattr(bpy.types.Scene, "vpl_gi"):
         package.register()
+
+
+def load_scene(path, percentage: int | None = None):
+    """The engine's Scene of a .blend, extracted through bpy (the extension loaded as ``vpl_gi``), at its own
+    resolution or at ``percentage``."""
+    register_extension()
+    import bpy
     from vpl_gi.operators.extract import extract
     bpy.ops.wm.open_mainfile(filepath=str(path))
+    if percentage is not None:
+        bpy.context.scene.render.resolution_percentage = percentage
     scene, _ = extract(bpy.context.evaluated_depsgraph_get())
     return scene
 
