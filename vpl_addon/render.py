@@ -32,6 +32,7 @@ import numpy as np
 
 from .core import passes as P
 from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
+from .core.memory import trim_heap
 from .core.sampling import group_sum, stratified_2d
 from .core.tracer import Tracer
 from .gather.bilateral import deinterleave
@@ -197,9 +198,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
         shine, shine_color, glossy_color = (np.zeros((w * h, 3), np.float32) for _ in range(3))
         # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
-        # gathering samples of that lobe, and their number
-        guide_position, guide_normal = np.zeros((2, w * h, 3)), np.zeros((2, w * h, 3))
-        guide_count = np.zeros((2, w * h))
+        # gathering samples of that lobe, and their number (float32: a guide needs no more, and 1920 x 1080 holds
+        # 0.24 GB less)
+        guide_position, guide_normal = (np.zeros((2, w * h, 3), np.float32) for _ in range(2))
+        guide_count = np.zeros((2, w * h), np.float32)
         data_wanted = want - set(P.ALL)
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
@@ -359,7 +361,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 count = guide_count[kind]
                 position = guide_position[kind] / np.maximum(count, 1)[:, None]
                 normal = guide_normal[kind] / np.maximum(np.linalg.norm(guide_normal[kind], axis=1, keepdims=True),
-                                                         1e-300)
+                                                         1e-30)  # float32's
                 return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
                                     (count > 0).reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
                                     settings.gather.interleave, settings.threads).reshape(-1, 3)
@@ -371,6 +373,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         images[P.COMBINED][:, :3] += images[P.DIFFUSE_COLOR] * indirect + glossy_color * reflected
         if P.GLOSSY_INDIRECT in want:
             images[P.GLOSSY_INDIRECT] = reflected
+        del reflected
         timing["filter"] = time.perf_counter() - t0
         result.info["vpls"] = len(vpls)
     if P.DIFFUSE_INDIRECT in want:
@@ -379,6 +382,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     if P.NOISY_IMAGE in want:
         images[P.NOISY_IMAGE] = images[P.COMBINED].copy()
     if settings.denoise:
+        # the gathering's frame arrays go before the denoiser's scratch memory comes (1920 x 1080: 0.2 GB)
+        del indirect, shine, shine_color, glossy_color, guide_position, guide_normal, guide_count
+        trim_heap()
         t0 = time.perf_counter()
         denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
                          images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings)

@@ -21,6 +21,11 @@ from typing import Callable
 import numpy as np
 
 
+# OIDN's scratch memory per filter run, in MB: above it OIDN denoises in overlapping tiles, with the same result. Left
+# to itself it takes 1.45 GB at 1920 x 1080 (and grows with the image); 1 GB costs 9 % more time there, 768 MB 50 %.
+SCRATCH_MB = 1024
+
+
 class DenoiserMissing(RuntimeError):
     """OIDN cannot be loaded on this system (the message says why)."""
 
@@ -101,6 +106,7 @@ def _filtered(oidn, device, images: dict[str, np.ndarray], keep_going: Callable[
         rt.set_image("output", out, oidn.OIDN_FORMAT_FLOAT3, width, height)
         for name, value in flags.items():
             rt.set_bool("cleanAux" if name == "clean_aux" else name, value)
+        rt.set_int("maxMemoryMB", SCRATCH_MB)
         rt.commit()
         rt.execute()
         message = device.get_error()  # None, or OIDN's message
