@@ -20,7 +20,7 @@ import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
-from ..core.rows import concat_fields, take_fields
+from ..core.rows import concat_fields, take, take_fields
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
@@ -219,12 +219,15 @@ def diffuse_cosine(ns: np.ndarray, smooth: np.ndarray, w: np.ndarray) -> np.ndar
     return np.maximum(dot(ns, w), 0.0) * bump_factor(ns, smooth, w)
 
 
-def bounce(scene, tracer, surface: Surface, dirs: np.ndarray):
-    """Rays from the points of ``surface`` along ``dirs``, offset off it; rays that would leave below the true
-    surface are dropped. Returns (what the rays hit, the index of the point each hit came from)."""
-    leave = np.nonzero(dot(dirs, surface.geometric_normal) > 0.0)[0]
-    hits = tracer.intersect(tracer.offset_origin(surface.position[leave], surface.geometric_normal[leave]),
-                            dirs[leave])
+def bounce(scene, tracer, surface: Surface, dirs: np.ndarray, rows: np.ndarray | None = None):
+    """Rays from the points of ``surface`` (or from its points ``rows``, a ray each) along ``dirs``, offset off it;
+    rays that would leave below the true surface are dropped. Returns (what the rays hit, the index of the ray
+    each hit came from)."""
+    position, normal = surface.position, surface.geometric_normal
+    if rows is not None:  # the two fields a ray needs, not a whole record of the rows
+        position, normal = take(position, rows), take(normal, rows)
+    leave = np.nonzero(dot(dirs, normal) > 0.0)[0]
+    hits = tracer.intersect(tracer.offset_origin(position[leave], normal[leave]), dirs[leave])
     rows = np.nonzero(hits.hit)[0]
     return shade(scene, dirs[leave], hits, rows), leave[rows]
 

@@ -88,7 +88,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
     lit, toward, drawn, p_light = _light_directions(point, lights, rng, choice, cdf, total_power)
     w, sampled, p_bsdf = v.sample(rng)
     rows = np.concatenate([lit, np.nonzero(p_bsdf > 0.0)[0]])
-    y, at = bounce(scene, tracer, point.take(rows), np.concatenate([toward[lit], w[rows[len(lit):]]]))
+    y, at = bounce(scene, tracer, point, np.concatenate([toward[lit], w[rows[len(lit):]]]), rows)
     source = rows[at]  # the vertex each hit came from
     light_hit = np.nonzero(at < len(lit))[0]
     weight = throughput[source] * sampled[source]  # f cos / pdf for the BSDF samples
