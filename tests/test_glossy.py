@@ -7,9 +7,11 @@ import pytest
 from conftest import plane_scene
 from vpl_addon.core.sampling import uniform_sphere
 from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import SunLight
 from vpl_addon.materials import microfacet as M
-from vpl_addon.render import RenderSettings, render
+from vpl_addon.paths.gbuffer import GBuffer
+from vpl_addon.render import RenderSettings, glossy_samples, render
 
 K = 200_000
 
@@ -174,3 +176,20 @@ def test_glossy_bsdf_tint_gives_the_colour_as_mean_reflectance(colour):
     f = M.fresnel(np.broadcast_to(c, (4096, 3)), M.f82_b(c, tint)[None], mu)
     assert np.allclose(2 * (mu[:, None] * f).mean(axis=0), np.maximum(c, 0.0044), atol=1e-4)  # black: a trace
     assert np.allclose(f[-1], c, atol=1e-3) and ((tint >= 0) & (tint <= 1)).all()
+
+
+@pytest.mark.parametrize("metallic, roughness, fewest, most", [(0.0, 0.8, 2, 2), (0.0, 0.2, 16, 16),
+                                                                (1.0, 0.8, 16, 16)])
+def test_a_rough_clear_coat_gathers_few_glossy_samples_a_metal_or_sharp_lobe_all(metallic, roughness, fewest, most):
+    """``render.glossy_samples`` on a floor's G-buffer: a Principled surface's rough dielectric layer seen head-on
+    (Glossy Color 0.024 over a Diffuse Color of 0.49) asks for twice its share of 16 samples, 2; a sharper layer and
+    a metal keep all 16."""
+    floor = plane_scene(materials=Materials.make([{"name": "m", "base_color": (0.5, 0.5, 0.5), "specular": 0.5,
+                                                   "metallic": metallic, "roughness": roughness}]))
+    scene = Scene.build(floor.triangles, floor.materials, floor.lights, floor.camera, material=[1, 1])
+    tracer = Tracer(scene.triangles, threads=1)
+    gbuf = GBuffer.build(scene, tracer, scene.camera.frame_pixels(np.arange(64)), 16, np.random.default_rng(0))
+    counts = glossy_samples(gbuf, gbuf.surface, M.GlossyLobe.of(gbuf.surface), 16)
+    tracer.close()
+    assert counts.shape == (64,)
+    assert fewest <= counts.min() and counts.max() <= most

@@ -107,6 +107,10 @@ class RenderResult:
     info: dict = field(default_factory=dict)  # what the method reports (paths traced, reverse share, ...)
 
 
+GLOSSY_SAMPLING = 2.0  # a rough glossy lobe's gathering samples against its share of the reflectance
+ROUGH_LOBE = 0.5  # Roughness from which a glossy lobe gathers fewer samples (``glossy_samples``)
+
+
 def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
     """Light over colour per channel, zero where the colour is (Cycles' pass division)."""
     return np.where(color > 0.0, light / np.where(color > 0.0, color, 1.0), 0.0)
@@ -128,6 +132,22 @@ def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarra
         raise Cancelled() from None
     except DenoiserMissing as err:
         warnings.append(f"{err}: {what} is not denoised")
+
+
+def glossy_samples(gbuf, surface, lobe, samples: int) -> np.ndarray:
+    """(P,) gathering samples of the glossy lobe per pixel, of ``samples`` for the diffuse one: each camera sample
+    asks for the lobe's share of its reflectance (the largest channel of Glossy Color against that plus Diffuse
+    Color's) times ``GLOSSY_SAMPLING``, or for all of it on a metal or a lobe sharper than ``ROUGH_LOBE``; a pixel
+    takes the mean of its samples' asks, at least one sample. Which samples gather depends on the G-buffer alone, so
+    each pixel's mean over its first ones stays unbiased. A rough clear coat (Glossy Color 0.024 against a Diffuse
+    Color of 0.49, seen head-on) then takes 2 samples of 16, not half of the gathering's time; a sharper lobe sees
+    more of the room's contrast in each sample (the living room's roughness 0.3-0.5 coats had 4x the spread of
+    rMAE over seeds with fewer samples), so it keeps them all."""
+    glossy, diffuse = lobe.color.max(axis=1), surface.albedo.max(axis=1)
+    ask = np.minimum(GLOSSY_SAMPLING * glossy / np.maximum(glossy + diffuse, 1e-300), 1.0)
+    ask[surface.glossy & ((surface.roughness < ROUGH_LOBE) | (surface.metallic > 0.0))] = 1.0
+    mean = np.bincount(gbuf.sample // gbuf.spp, ask, len(gbuf.pixels)) / gbuf.spp
+    return np.clip(np.ceil(samples * mean), 1, samples).astype(np.int64)
 
 
 def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
@@ -269,7 +289,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
                 if lobe is not None:
-                    shiny = gbuf.first(surf.glossy, gather_spp)
+                    shiny = gbuf.first(surf.glossy, glossy_samples(gbuf, surf, lobe, gather_spp))
                     if sampled is None:
                         reflected = summed(surf.take(shiny), lobe.take(shiny), gbuf.pixel_of_hit[shiny], rng)
                     else:

@@ -73,10 +73,11 @@ class GBuffer:
         """Fraction of each pixel's samples that hit geometry: the alpha of a transparent film."""
         return np.bincount(self.sample // self.spp, minlength=len(self.pixels)) / self.spp
 
-    def first(self, where: np.ndarray, count: int) -> np.ndarray:
+    def first(self, where: np.ndarray, count) -> np.ndarray:
         """Rows of the first ``count`` hits of each pixel among those ``where`` holds: a pixel whose first samples
-        miss a lobe (a wall's edge on a metal floor) still has that lobe's light from its other samples."""
+        miss a lobe (a wall's edge on a metal floor) still has that lobe's light from its other samples. ``count``
+        is one number, or one per pixel (P,)."""
         rows = np.nonzero(where)[0]
         pixel = self.sample[rows] // self.spp  # non-decreasing: hits are in sample order
         rank = np.arange(len(rows)) - np.searchsorted(pixel, pixel)
-        return rows[rank < count]
+        return rows[rank < (count if np.isscalar(count) else np.asarray(count)[pixel])]
