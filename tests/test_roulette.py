@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from vpl_addon.core.scene import Materials
+from vpl_addon.lights.direct import direct_light
 from vpl_addon.methods import MethodSettings
 from vpl_addon.methods.vbnl import VBNLSettings, virtual_light_sampling
 from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
@@ -56,3 +57,26 @@ def test_a_faint_coat_stops_paths_long_before_the_bounce_limit(monkeypatch):
     monkeypatch.setattr(vertices, "roulette", every_path)
     assert light == pytest.approx(render(room(materials=coated, res=32, max_bounces=8), settings)
                                   .passes["Diffuse Indirect"].mean(), rel=0.03)
+
+
+def test_a_rough_coat_takes_fewer_light_samples_for_the_same_light(monkeypatch):
+    """At the vertices of a rough coat (``Surface.rough_coat``) the camera paths' next-event estimation takes
+    ``COAT_LIGHT_SAMPLES`` (2) light samples, not the 8 a metal needs, for the same light."""
+    coated = Materials.make([{"name": "coated", "base_color": (0.8, 0.8, 0.8), "roughness": 0.8,
+                              "specular": 0.5, "ior": 1.5}])
+    settings = RenderSettings(samples=4, light_samples=1, method="vbnl", seed=1, passes=("Diffuse Indirect",),
+                              placement=MethodSettings(vbnl=VBNLSettings(photons=8192,
+                                                                         sampling=SamplingSettings(samples=4))))
+    asked = []
+
+    def counted(surface, lights, tracer, samples, rng, **kwargs):  # the real next-event estimation, its samples kept
+        asked.append(samples)
+        return direct_light(surface, lights, tracer, samples, rng, **kwargs)
+    monkeypatch.setattr(vertices, "direct_light", counted)
+    light = {}
+    for samples in (vertices.COAT_LIGHT_SAMPLES, vertices.GLOSSY_LIGHT_SAMPLES):
+        monkeypatch.setattr(vertices, "COAT_LIGHT_SAMPLES", samples)
+        asked.clear()
+        light[samples] = render(room(materials=coated, res=32, max_bounces=4), settings).passes["Diffuse Indirect"]
+        assert asked and set(asked) == {samples}  # every vertex of the coated room is a rough coat's
+    assert light[2].mean() == pytest.approx(light[8].mean(), rel=0.01)

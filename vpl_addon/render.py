@@ -107,8 +107,7 @@ class RenderResult:
     info: dict = field(default_factory=dict)  # what the method reports (paths traced, reverse share, ...)
 
 
-GLOSSY_SAMPLING = 2.0  # a rough glossy lobe's gathering samples against its share of the reflectance
-ROUGH_LOBE = 0.5  # Roughness from which a glossy lobe gathers fewer samples (``glossy_samples``)
+GLOSSY_SAMPLING = 2.0  # a rough coat's gathering samples against its share of the reflectance (``glossy_samples``)
 
 
 def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
@@ -135,9 +134,9 @@ def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarra
 
 
 def glossy_samples(gbuf, surface, lobe, samples: int) -> np.ndarray:
-    """(P,) gathering samples of the glossy lobe per pixel, of ``samples`` for the diffuse one: each camera sample
-    asks for the lobe's share of its reflectance (the largest channel of Glossy Color against that plus Diffuse
-    Color's) times ``GLOSSY_SAMPLING``, or for all of it on a metal or a lobe sharper than ``ROUGH_LOBE``; a pixel
+    """(P,) gathering samples of the glossy lobe per pixel, of ``samples`` for the diffuse one: each camera sample on
+    a rough coat (``Surface.rough_coat``) asks for the lobe's share of its reflectance (the largest channel of Glossy
+    Color against that plus Diffuse Color's) times ``GLOSSY_SAMPLING``, one on another glossy lobe for all; a pixel
     takes the mean of its samples' asks, at least one sample. Which samples gather depends on the G-buffer alone, so
     each pixel's mean over its first ones stays unbiased. A rough clear coat (Glossy Color 0.024 against a Diffuse
     Color of 0.49, seen head-on) then takes 2 samples of 16, not half of the gathering's time; a sharper lobe sees
@@ -145,7 +144,7 @@ def glossy_samples(gbuf, surface, lobe, samples: int) -> np.ndarray:
     rMAE over seeds with fewer samples), so it keeps them all."""
     glossy, diffuse = lobe.color.max(axis=1), surface.albedo.max(axis=1)
     ask = np.minimum(GLOSSY_SAMPLING * glossy / np.maximum(glossy + diffuse, 1e-300), 1.0)
-    ask[surface.glossy & ((surface.roughness < ROUGH_LOBE) | (surface.metallic > 0.0))] = 1.0
+    ask[surface.glossy & ~surface.rough_coat] = 1.0
     mean = np.bincount(gbuf.sample // gbuf.spp, ask, len(gbuf.pixels)) / gbuf.spp
     return np.clip(np.ceil(samples * mean), 1, samples).astype(np.int64)
 

@@ -24,6 +24,8 @@ from ..core.rows import concat_fields, take, take_fields
 from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
+ROUGH_COAT = 0.5  # Roughness from which a dielectric layer counts as a rough coat (``Surface.rough_coat``)
+
 
 @dataclass
 class Surface:
@@ -52,6 +54,13 @@ class Surface:
     def glossy(self) -> np.ndarray:
         """(K,) bool: whether the point has a glossy lobe, metallic or the dielectric layer."""
         return (self.metallic > 0.0) | (self.eta != 1.0)
+
+    @property
+    def rough_coat(self) -> np.ndarray:
+        """(K,) bool: whether the point's glossy lobe is a rough dielectric layer alone (no metal, Roughness at least
+        ``ROUGH_COAT``): a lobe nearly as broad as the diffuse one and a few per cent of the light, which fewer
+        samples serve (``render.glossy_samples``, ``paths.vertices.at_metal``)."""
+        return (self.metallic <= 0.0) & (self.eta != 1.0) & (self.roughness >= ROUGH_COAT)
 
     def __len__(self):
         return len(self.prim)

@@ -17,6 +17,9 @@ from ..materials.surface import Surface, bump_factor
 # next-event samples at a metallic vertex a camera path extends to: light reaching a diffuse point over metal
 # (a caustic) comes only from them, and a sharp lobe catches a light rarely
 GLOSSY_LIGHT_SAMPLES = 8
+# at a rough coat's vertex (``Surface.rough_coat``), whose broad lobe catches lights as a diffuse one does: the hotel
+# room's gather spent 22 % of its time in 8 samples there
+COAT_LIGHT_SAMPLES = 2
 
 
 @dataclass
@@ -83,11 +86,15 @@ def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.nda
              out: np.ndarray) -> PathVertices:
     """The hits ``rows`` of ``y`` as metallic vertices (``owner`` and ``throughput`` given per hit) that survive
     ``roulette`` on their throughput times their lobe's albedo (Glossy Color), their direct light through the lobe
-    (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``) added to ``out``."""
+    (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``, ``COAT_LIGHT_SAMPLES`` at a rough coat) added to
+    ``out``."""
     lobe = GlossyLobe.of(y.take(rows))
     live, boost = roulette(throughput[rows] * lobe.color, rng)
     rows, lobe = rows[live], lobe.take(live)
     metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe)
-    out += group_sum(metal.owner, metal.throughput * direct_light(metal.point, lights, tracer, GLOSSY_LIGHT_SAMPLES,
-                                                                  rng, glossy=metal.lobe)[1], len(out))
+    coat = metal.point.rough_coat
+    for part, samples in ((np.nonzero(~coat)[0], GLOSSY_LIGHT_SAMPLES), (np.nonzero(coat)[0], COAT_LIGHT_SAMPLES)):
+        if len(part):
+            light = direct_light(metal.point.take(part), lights, tracer, samples, rng, glossy=metal.lobe.take(part))[1]
+            out += group_sum(metal.owner[part], metal.throughput[part] * light, len(out))
     return metal
