@@ -193,3 +193,12 @@ def test_a_rough_clear_coat_gathers_few_glossy_samples_a_metal_or_sharp_lobe_all
     tracer.close()
     assert counts.shape == (64,)
     assert fewest <= counts.min() and counts.max() <= most
+
+
+def test_compensation_reads_the_tables_at_nan_inputs_without_leaving_them():
+    """``microfacet._compensated`` is compiled without bounds checks: a NaN roughness or view cosine reads the
+    tables' first entries (roughness 0, mu 0) instead of an index from floor(NaN)."""
+    comp = M.compensation(np.array([np.nan, 0.0]), np.full((2, 3), 0.5), np.zeros((2, 3)), np.array([0.0, np.nan]))
+    first = M.compensation(np.zeros(1), np.full((1, 3), 0.5), np.zeros((1, 3)), np.zeros(1))
+    np.testing.assert_array_equal(comp.scale, np.repeat(first.scale, 2, axis=0))
+    np.testing.assert_array_equal(comp.color, np.repeat(first.color, 2, axis=0))

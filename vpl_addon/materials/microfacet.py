@@ -379,12 +379,14 @@ def _compensated(e_tab, e_avg_tab, s_tab, roughness, mu, f_avg, f, scale, color)
     """Per row: Kulla and Conty's compensation ``scale`` = 1 + F_ms (1 - E) / E, with F_ms = F_avg E_avg / (1 - F_avg
     (1 - E_avg)), and ``color`` = (E + F_ms (1 - E)) (f + (1 - f) s): E and s looked up at (roughness, mu) in their
     (roughness, mu) tables and E_avg at roughness, as ``_on_grid`` does, in one pass (the numpy lookups were a tenth
-    of the hotel room's time)."""
+    of the hotel room's time). A NaN roughness or cosine reads the tables' first entries, not memory outside them."""
     for k in range(len(roughness)):
-        x = min(max(roughness[k], 0.0), 1.0) * (TABLE_ROUGHNESS - 1)
+        r, m = roughness[k], mu[k]
+        r, m = r if r == r else 0.0, m if m == m else 0.0
+        x = min(max(r, 0.0), 1.0) * (TABLE_ROUGHNESS - 1)
         i = min(int(np.floor(x)), TABLE_ROUGHNESS - 2)
         fx = x - i
-        y = min(max(min(max(mu[k], 0.0), 1.0) * TABLE_MU - 0.5, 0.0), TABLE_MU - 1)
+        y = min(max(min(max(m, 0.0), 1.0) * TABLE_MU - 0.5, 0.0), TABLE_MU - 1)
         j = min(int(np.floor(y)), TABLE_MU - 2)
         fy = y - j
         e = (e_tab[i, j] * (1 - fx) + e_tab[i + 1, j] * fx) * (1 - fy) + \
