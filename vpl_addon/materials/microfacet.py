@@ -352,33 +352,26 @@ def _dielectric_tables(eta: float) -> tuple[np.ndarray, float]:
     return s_bar / np.maximum(_metal_tables()[0], 1e-300), float(_interpolation(f0, dielectric_fss(eta)))
 
 
-def _on_grid(table: np.ndarray, roughness: np.ndarray, mu: np.ndarray | None = None) -> np.ndarray:
-    """Bilinear lookup of a (roughness, mu) table, or linear of a (roughness,) one."""
-    x = np.clip(np.asarray(roughness, np.float64), 0.0, 1.0) * (TABLE_ROUGHNESS - 1)
-    i = np.minimum(np.floor(x).astype(np.int64), TABLE_ROUGHNESS - 2)
+def _at_roughness(table: np.ndarray, roughness: float) -> np.ndarray:
+    """A table's rows (roughness first) interpolated linearly at one roughness."""
+    x = min(max(float(roughness), 0.0), 1.0) * (TABLE_ROUGHNESS - 1)
+    i = min(int(np.floor(x)), TABLE_ROUGHNESS - 2)
     fx = x - i
-    if mu is None:
-        return table[i] * (1.0 - fx) + table[i + 1] * fx
-    y = np.clip(np.clip(mu, 0.0, 1.0) * TABLE_MU - 0.5, 0.0, TABLE_MU - 1)
-    j = np.minimum(np.floor(y).astype(np.int64), TABLE_MU - 2)
-    fy = y - j
-    return (table[i, j] * (1 - fx) + table[i + 1, j] * fx) * (1 - fy) + \
-        (table[i, j + 1] * (1 - fx) + table[i + 1, j + 1] * fx) * fy
+    return table[i] * (1.0 - fx) + table[i + 1] * fx
 
 
 def albedo_table(roughness: float) -> tuple[np.ndarray, np.ndarray, float]:
     """(E (TABLE_MU,), s (TABLE_MU,), E_avg) of the lobe with F = 1 at view cosines ``mu_grid()``, interpolated in
     roughness from the grid."""
     e, s, e_avg = _metal_tables()
-    r = np.full(1, float(roughness))
-    return _on_grid(e, r)[0], _on_grid(s, r)[0], float(_on_grid(e_avg, r)[0])
+    return _at_roughness(e, roughness), _at_roughness(s, roughness), float(_at_roughness(e_avg, roughness))
 
 
 @kernel
 def _compensated(e_tab, e_avg_tab, s_tab, roughness, mu, f_avg, f, scale, color):
     """Per row: Kulla and Conty's compensation ``scale`` = 1 + F_ms (1 - E) / E, with F_ms = F_avg E_avg / (1 - F_avg
     (1 - E_avg)), and ``color`` = (E + F_ms (1 - E)) (f + (1 - f) s): E and s looked up at (roughness, mu) in their
-    (roughness, mu) tables and E_avg at roughness, as ``_on_grid`` does, in one pass (the numpy lookups were a tenth
+    (roughness, mu) tables, bilinearly, and E_avg linearly at roughness, in one pass (the numpy lookups were a tenth
     of the hotel room's time). A NaN roughness or cosine reads the tables' first entries, not memory outside them."""
     for k in range(len(roughness)):
         r, m = roughness[k], mu[k]
