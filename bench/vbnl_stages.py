@@ -4,9 +4,10 @@
    ``RenderResult.info["seconds"]`` has them, after a warm-up placement (compiled kernels load from disk).
 1. Adaptive sample elimination of 1,000,000 camera candidates (sec. 3.1, found in the scene) to 100,000 lights
    (that it spaces them like the sequential greedy is a test, tests/test_vbnl.py; here only the time).
-2. Photon splitting of 10,000,000 photons (light-path vertices) among those 100,000 lights: light paths traced
-   in batches and never stored, each vertex's intensity shared among the lights covering it on the tracer's
-   threads.
+2. Photon splitting of about 10,000,000 photons (light-path vertices) among those 100,000 lights, as the
+   placement does it (``photon_batches``, ``split_photons``): light paths traced in batches on the tracer's threads
+   and never stored, each vertex's intensity shared among the lights covering it, kept apart by bounce, on as
+   many threads, the two overlapping.
 
     .venv/bin/python bench/vbnl_stages.py [SCENE.blend] [--candidates N] [--lights N] [--photons N]
 """
@@ -58,10 +59,9 @@ def main():
     from vpl_gi.vpl_addon.core.tracer import Tracer
     from vpl_gi.vpl_addon.lights import LightSet
     from vpl_gi.vpl_addon.methods import MethodContext, MethodSettings, place
-    from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates
+    from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates, photon_batches, split_photons
     from vpl_gi.vpl_addon.methods.vbnl.photon_lights import ALPHA, PhotonLights
     from vpl_gi.vpl_addon.methods.vbnl.sample_elimination import eliminate
-    from vpl_gi.vpl_addon.paths.light_paths import trace_paths
 
     rng = np.random.default_rng(0)
     tracer = Tracer(scene.triangles)
@@ -81,22 +81,23 @@ def main():
     kept = eliminate(position, args.lights, rng)
     print(f"adaptive sample elimination {len(position):,} -> {len(kept.keep):,}: {time.perf_counter() - t:.2f} s")
     lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
-    split = paths = 0
-    trace_seconds = split_seconds = 0.0
-    pool = ThreadPoolExecutor(tracer.threads)
-    while split < args.photons:
+    context = MethodContext(scene, tracer, lights_in_scene, rng, scene.max_bounces)
+    bounces = max(scene.max_bounces, 1)
+    counted = []
+
+    def counting(batches):
+        for photons in batches:
+            counted.append(len(photons))
+            yield photons
+
+    with ThreadPoolExecutor(tracer.threads) as tracing:
+        pilot = next(photon_batches(context, PATHS_PER_BATCH, (0, 0), tracing))  # photons per path, not timed
+        paths = -(-int(args.photons * PATHS_PER_BATCH / len(pilot)) // PATHS_PER_BATCH) * PATHS_PER_BATCH
         t = time.perf_counter()
-        photons = trace_paths(scene, tracer, lights_in_scene, PATHS_PER_BATCH, rng, scene.max_bounces,
-                              first_path=paths)
-        t2 = time.perf_counter()
-        lights.spread(photons.position, photons.normal, photons.intensity, pool=pool, workers=tracer.threads)
-        split_seconds += time.perf_counter() - t2
-        trace_seconds += t2 - t
-        split += len(photons)
-        paths += PATHS_PER_BATCH
-    pool.shutdown()
-    print(f"photon splitting of {split:,} photons ({paths:,} light paths) among {len(lights):,} lights: "
-          f"{trace_seconds + split_seconds:.2f} s (tracing {trace_seconds:.2f} s, splitting {split_seconds:.2f} s)")
+        split_photons(lights, counting(photon_batches(context, paths, (1, 2), tracing)), bounces, tracer)
+        seconds = time.perf_counter() - t
+    print(f"photon splitting of {sum(counted):,} photons ({paths:,} light paths, {bounces} bounce groups) among "
+          f"{len(lights):,} lights, traced and split on {tracer.threads} threads: {seconds:.2f} s")
     tracer.close()
 
 

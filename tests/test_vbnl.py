@@ -10,8 +10,9 @@ from conftest import plane_scene
 from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodContext, MethodSettings, place
-from vpl_addon.methods.vbnl import VBNLSettings, catchment
-from vpl_addon.methods.vbnl.photon_lights import SLAB, PhotonLights
+from vpl_addon.methods.vbnl import PATHS_PER_BATCH, VBNLSettings, catchment, photon_batches
+from vpl_addon.methods.vbnl import photon_lights
+from vpl_addon.methods.vbnl.photon_lights import SLAB, PhotonLights, Splitting
 from vpl_addon.methods.vbnl import sample_elimination
 from vpl_addon.methods.vbnl.sample_elimination import WEIGHT_EXPONENT, eliminate
 
@@ -174,7 +175,11 @@ def test_shares_from_the_light_grid_are_those_of_every_pair():
                        atol=1e-13)
 
 
-def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group():
+@pytest.mark.parametrize("sorted_from", [photon_lights.SORTED_FROM, 0])
+def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group(sorted_from, monkeypatch):
+    """In the points' order and in the order of their grid slots (``SORTED_FROM`` lights, here 0), on one thread
+    and on three, batch after batch into the same sums."""
+    monkeypatch.setattr(photon_lights, "SORTED_FROM", sorted_from)
     rng = np.random.default_rng(4)
     lights = box_lights(300, rng)
     points, normals = points_near_box_faces(10_000, rng)
@@ -183,9 +188,29 @@ def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group()
     slot = light * 4 + group[rows]
     expected = np.stack([np.bincount(slot, share * values[rows, c], 300 * 4) for c in range(3)], axis=1)
     with ThreadPoolExecutor(2) as pool:
+        in_batches = Splitting(lights, 4, 3, pool, 3)
+        for part in np.array_split(np.arange(10_000), 7):
+            in_batches.add(points[part], normals[part], values[part], group[part])
         for split in (lights.spread(points, normals, values, group, 4),
-                      lights.spread(points, normals, values, group, 4, pool, 3)):
+                      lights.spread(points, normals, values, group, 4, pool, 3), in_batches.total()):
             assert np.allclose(split, expected.reshape(300, 4, 3), rtol=1e-9, atol=1e-13)
+
+
+def test_photon_batches_are_the_same_on_any_number_of_threads():
+    """Each batch draws from its own seed: traced on one thread or on two at once (as the placement does once its
+    lights exist), the photons are the same, batch by batch."""
+    scene = plane_scene(lights=[PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3)])
+    tracer = Tracer(scene.triangles)
+    context = MethodContext(scene, tracer, LightSet(scene), np.random.default_rng(0), max_bounces=2)
+    runs = []
+    for threads in (1, 2):
+        with ThreadPoolExecutor(threads) as executor:
+            runs.append(list(photon_batches(context, 3 * PATHS_PER_BATCH // 2, (5, 6), executor)))
+    tracer.close()
+    assert [len(b) for b in runs[0]] == [len(b) for b in runs[1]] and len(runs[0]) == 2
+    for one, two in zip(*runs):
+        assert len(one) > 1000 and np.array_equal(one.position, two.position)
+        assert np.array_equal(one.intensity, two.intensity)
 
 
 def test_catchments_add_up_to_the_area_the_lights_cover():

@@ -9,8 +9,9 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
    and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
-3. photon splitting (sec. 3.3, ``PhotonLights.spread``): ``photons`` light paths, traced in batches on a thread
-   of their own while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held), share
+3. photon splitting (sec. 3.3, ``Splitting``): ``photons`` light paths, traced in batches on a thread
+   of their own while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held) and on
+   all the tracer's threads after them, share
    the intensity of every vertex among the lights covering it, kept apart by bounce so that
    an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
    limit holds for the whole path).
@@ -23,8 +24,10 @@ frame in which something moved (the camera included).
 from __future__ import annotations
 
 import math
+import threading
 import time
 from collections import deque
+from contextlib import nullcontext
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
@@ -40,7 +43,7 @@ from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
 from . import virtual_light_sampling
-from .photon_lights import ALPHA, SLAB, PhotonLights
+from .photon_lights import ALPHA, SLAB, PhotonLights, Splitting
 from .sample_elimination import MODES, eliminate
 
 PATHS_PER_BATCH = 1 << 16
@@ -175,17 +178,19 @@ def advance(state: PlacedFromPaths, context, settings, motion):
 
 def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     """(lights, info): sec. 3's placement. The photons' light paths do not depend on the lights, so they are traced
-    on a thread of their own, with random numbers of their own, while the candidates are found and thinned: at
-    most ``AHEAD`` batches ahead of their splitting. A sequence's kept paths are followed first, alone, so that the
+    on a thread of their own (``photon_batches``), with random numbers of their own, while the candidates are
+    found and thinned, and on as many threads as the tracer has after that: at most ``AHEAD`` batches ahead of
+    their splitting. A sequence's kept paths are followed first, alone, so that the
     rays the tracer counts meanwhile are theirs (``light_path_rays``, the paper's Fig. 7 count)."""
     s = settings.vbnl
     marks = {"start": time.perf_counter()}
-    own = replace(context, rng=np.random.default_rng(context.rng.integers(1 << 63, size=2)))
-    tracing = ThreadPoolExecutor(1)
+    seed = tuple(int(x) for x in context.rng.integers(1 << 63, size=2))
+    own = replace(context, rng=np.random.default_rng(seed))
+    tracing = ThreadPoolExecutor(context.tracer.threads)
+    lanes = threading.Semaphore(1)  # one tracing thread while this one finds and thins the candidates
     try:
         if state is None:
-            batches = _ahead([partial(_photons, own, first, min(PATHS_PER_BATCH, s.photons - first))
-                              for first in range(0, s.photons, PATHS_PER_BATCH)], tracing, AHEAD)
+            batches = photon_batches(context, s.photons, seed, tracing, lanes)
         else:
             traced = follow(state.paths, own, motion, 0, settings.path_reuse, settings.path_threshold,
                             paths=s.photons)
@@ -199,16 +204,18 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
         marks["elimination"] = time.perf_counter()
         lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
         marks["catchment"] = time.perf_counter()
+        lanes.release(context.tracer.threads - 1)  # the splitting waits for the photons: trace on every thread
         bounces = max(context.max_bounces, 1)
         if state is None:  # intensities divided by the number of paths
             traced = s.photons if len(lights) else 0
-            by_bounce = _split(lights, batches if traced else (), bounces, context.tracer) / max(traced, 1)
+            by_bounce = split_photons(lights, batches if traced else (), bounces, context.tracer) / max(traced, 1)
         else:  # the kept photons, intensities already divided by the number of paths
             photons = state.paths.lights()
-            by_bounce = _split(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
-                                        for first in range(0, len(photons), POINTS_PER_BATCH)), bounces,
-                               context.tracer)
+            by_bounce = split_photons(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
+                                               for first in range(0, len(photons), POINTS_PER_BATCH)), bounces,
+                                      context.tracer)
     finally:
+        lanes.release(context.tracer.threads)  # no job waits for a lane that is never freed
         tracing.shutdown(cancel_futures=True)
     lights.by_bounce = np.cumsum(by_bounce, axis=1)
     lights.intensity = lights.by_bounce[:, -1]
@@ -222,10 +229,20 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     return lights, info
 
 
-def _photons(context, first: int, count: int):
-    """The photons (light-path vertices) of ``count`` light paths, the first numbered ``first``."""
-    return trace_paths(context.scene, context.tracer, context.lights, count, context.rng, context.max_bounces,
-                       first_path=first)
+def photon_batches(context, paths: int, seed: tuple, executor, lanes: threading.Semaphore | None = None):
+    """The photons (light-path vertices) of ``paths`` light paths in batches of ``PATHS_PER_BATCH`` paths, in
+    order, traced on the threads of ``executor`` at most ``AHEAD`` batches ahead of the caller; with ``lanes``, on
+    only as many threads at once as it lets through. Each batch draws from a generator of its own, seeded by
+    ``seed`` and its first path: the photons do not depend on which thread traced them, or on how many there are."""
+    return _ahead([partial(_photons, context, seed, first, min(PATHS_PER_BATCH, paths - first), lanes)
+                   for first in range(0, paths, PATHS_PER_BATCH)], executor, AHEAD)
+
+
+def _photons(context, seed: tuple, first: int, paths: int, lanes=None):
+    """The photons of ``paths`` light paths, the first numbered ``first``."""
+    with lanes or nullcontext():
+        return trace_paths(context.scene, context.tracer, context.lights, paths,
+                           np.random.default_rng([*seed, first]), context.max_bounces, first_path=first)
 
 
 def _ahead(jobs, executor, depth: int):
@@ -242,17 +259,16 @@ def _ahead(jobs, executor, depth: int):
     return results()
 
 
-def _split(lights, batches, bounces: int, tracer) -> np.ndarray:
+def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
     """(N, bounces, 3) photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the
     lights covering them, kept apart by bounce, each batch split over the tracer's threads; a ``checkpoint`` of
     the tracer after each batch."""
-    by_bounce = np.zeros((len(lights), bounces, 3))
     with ThreadPoolExecutor(tracer.threads) as pool:
+        splitting = Splitting(lights, bounces, 3, pool, tracer.threads)
         for photons in batches:
-            by_bounce += lights.spread(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
-                                       bounces, pool, tracer.threads)
+            splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1)
             tracer.checkpoint()
-    return by_bounce
+    return splitting.total()
 
 
 def gather_samples(settings) -> int:
