@@ -31,6 +31,7 @@ from typing import Callable
 import numpy as np
 
 from .core import passes as P
+from .core.color import largest
 from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise
 from .core.memory import trim_heap
 from .core.sampling import group_sum, stratified_2d
@@ -142,7 +143,7 @@ def glossy_samples(gbuf, surface, lobe, samples: int) -> np.ndarray:
     Color of 0.49, seen head-on) then takes 2 samples of 16, not half of the gathering's time; a sharper lobe sees
     more of the room's contrast in each sample (the living room's roughness 0.3-0.5 coats had 4x the spread of
     rMAE over seeds with fewer samples), so it keeps them all."""
-    glossy, diffuse = lobe.color.max(axis=1), surface.albedo.max(axis=1)
+    glossy, diffuse = largest(lobe.color), largest(surface.albedo)
     ask = np.minimum(GLOSSY_SAMPLING * glossy / np.maximum(glossy + diffuse, 1e-300), 1.0)
     ask[surface.glossy & ~surface.rough_coat] = 1.0
     mean = np.bincount(gbuf.sample // gbuf.spp, ask, len(gbuf.pixels)) / gbuf.spp
@@ -254,7 +255,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             surf = gbuf.surface
             guard("G-buffer", {P.DIFFUSE_COLOR: surf.albedo, P.EMIT: surf.emission})
             lobe = GlossyLobe.of(surf) if need_glossy else None
-            diffuse = (surf.albedo.max(axis=1) > 0.0)[:, None]  # the diffuse passes see only diffuse surfaces
+            diffuse = (largest(surf.albedo) > 0.0)[:, None]  # the diffuse passes see only diffuse surfaces
             marks["gbuffer"] = time.perf_counter()
             if need_direct:
                 # the light samples of a pixel: scrambled nets, dealt to its camera samples in random order

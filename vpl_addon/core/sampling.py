@@ -59,12 +59,27 @@ def to_world(local: np.ndarray, n: np.ndarray) -> np.ndarray:
 
 
 def cosine_hemisphere(u1: np.ndarray, u2: np.ndarray, n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Directions with pdf cos(theta)/pi about n (Malley's method); returns (directions, cos theta)."""
-    r = np.sqrt(u1)
-    phi = 2.0 * np.pi * u2
-    z = np.sqrt(np.maximum(0.0, 1.0 - u1))
-    local = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=-1)
-    return to_world(local, n), z
+    """Directions with pdf cos(theta)/pi about the unit normals n (K,3) (Malley's method), from numbers u1, u2 (K,);
+    returns (directions, cos theta). ``to_world``'s frame, in one compiled loop."""
+    u1, u2 = np.asarray(u1, np.float64), np.asarray(u2, np.float64)
+    dirs, cos = np.empty((len(u1), 3)), np.empty(len(u1))
+    _cosine_hemisphere(u1, u2, np.asarray(n, np.float64), dirs, cos)
+    return dirs, cos
+
+
+@kernel
+def _cosine_hemisphere(u1, u2, n, dirs, cos):
+    for i in range(len(u1)):
+        r, phi, z = np.sqrt(u1[i]), 2.0 * np.pi * u2[i], np.sqrt(max(0.0, 1.0 - u1[i]))
+        x, y = r * np.cos(phi), r * np.sin(phi)
+        n0, n1, n2 = n[i, 0], n[i, 1], n[i, 2]
+        sign = 1.0 if n2 >= 0.0 else -1.0  # orthonormal_basis
+        a = -1.0 / (sign + n2)
+        b = n0 * n1 * a
+        dirs[i, 0] = x * (1.0 + sign * n0 ** 2 * a) + y * b + z * n0
+        dirs[i, 1] = x * (sign * b) + y * (sign + n1 ** 2 * a) + z * n1
+        dirs[i, 2] = x * (-sign * n0) + y * -n1 + z * n2
+        cos[i] = z
 
 
 def uniform_sphere(u1: np.ndarray, u2: np.ndarray) -> np.ndarray:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.color import largest
 from ..core.sampling import dot, group_sum, power_heuristic, stratified_2d
 from ..materials.microfacet import GlossyLobe
 from ..core.compiled import kernel
@@ -140,7 +141,7 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
         if answer is None:
             continue
         dist, radiance, pdf = answer
-        hit = np.nonzero((pdf > 0.0) & (radiance.max(axis=1) > 0.0))[0]
+        hit = np.nonzero((pdf > 0.0) & (largest(radiance) > 0.0))[0]
         if index is not None:  # times the probability of choosing the light there
             pdf[hit] *= lights.selection(p[rows[hit]], ns[rows[hit]], np.full(len(hit), index))
         hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]

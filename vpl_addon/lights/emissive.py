@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.color import LUMINANCE
+from ..core.color import LUMINANCE, largest
 from ..core.sampling import cosine_hemisphere, dot, sample_cdf, triangle_barycentrics
 from ..materials.textures import at_points
 from .light import Light
@@ -34,7 +34,7 @@ class EmissiveTriangles(Light):
     @staticmethod
     def from_scene(scene) -> "EmissiveTriangles | None":
         emission = _emission(scene)
-        sel = emission.max(axis=1) > 0.0
+        sel = largest(emission) > 0.0
         if not sel.any():
             return None
         return EmissiveTriangles(scene.triangles[sel], scene.geometric_normals[sel], emission[sel])

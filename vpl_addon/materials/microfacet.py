@@ -41,6 +41,7 @@ from functools import cached_property, lru_cache
 
 import numpy as np
 
+from ..core.color import largest
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take_fields
 from ..core.sampling import dot, stratified_2d
@@ -486,7 +487,7 @@ class GlossyLobe:
     @cached_property
     def present(self) -> np.ndarray:
         """(K,) bool: whether the point has either lobe (computed once: direct light asks per batch)."""
-        return (self.weight.max(axis=1) > 0.0) | (self.layer.max(axis=1) > 0.0)
+        return (largest(self.weight) > 0.0) | (largest(self.layer) > 0.0)
 
     def take(self, rows) -> "GlossyLobe":
         return take_fields(self, rows)

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..core.color import largest
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take, take_fields
@@ -88,8 +89,8 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     smooth = np.where(flip, -ns, ns)
     ns = np.where(flip, -inputs["normal"], inputs["normal"])
     base, metallic, roughness = np.clip(inputs["base_color"], 0.0, 1.0), inputs["metallic"], inputs["roughness"]
-    tint = m.specular_tint[mat].astype(np.float64)
-    f0, eta = specular_layer(m.ior[mat].astype(np.float64), m.specular[mat].astype(np.float64))
+    f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))  # per material, then point
+    tint, f0, eta = m.specular_tint.astype(np.float64)[mat], f0[mat], eta[mat]
     glass = np.nonzero(m.glass[mat])[0]
     if len(glass):  # a ray stopped by a pane (``cutouts``): all it does is reflect, as a white mirror
         base[glass], metallic[glass], tint[glass], eta[glass], f0[glass] = 1.0, 1.0, 1.0, 1.0, 0.0
@@ -99,7 +100,7 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     if len(layered):
         mu = np.clip(-dot(ns[layered], dirs[rows][layered]), 0.0, 1.0)
         a = layer_albedo(roughness[layered], dielectric[layered], eta[layered], mu)
-        below[layered] *= np.clip(1.0 - a.max(axis=1), 0.0, 1.0)[:, None]
+        below[layered] *= np.clip(1.0 - largest(a), 0.0, 1.0)[:, None]
     return Surface(position=position, geometric_normal=ng, shading_normal=ns, prim=prim, material=mat,
                    albedo=below, roughness=roughness, metallic=metallic, emission=inputs["emission"],
                    specular=base, edge=f82_b(base, tint), dielectric=dielectric, eta=eta, incident=dirs[rows],
@@ -110,9 +111,11 @@ def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.n
     """Per point, the material inputs an image can drive: their values, or the textures' where linked; ``normal``
     the shading normal after any normal map (not yet turned toward the ray)."""
     m = scene.materials
-    out = {"base_color": m.base_color[mat].astype(np.float64), "roughness": m.roughness[mat].astype(np.float64),
-           "metallic": m.metallic[mat].astype(np.float64), "emission": m.emission[mat].astype(np.float64),
+    out = {"base_color": m.base_color.astype(np.float64)[mat], "roughness": m.roughness.astype(np.float64)[mat],
+           "metallic": m.metallic.astype(np.float64)[mat], "emission": m.emission.astype(np.float64)[mat],
            "normal": ns}
+    if not any((m.mapped(name) >= 0).any() for name in (*out, "bump")):  # no material has a texture
+        return out
     linked = {name: m.mapped(name)[mat] for name in out}
     bump = m.mapped("bump")[mat]
     if not any((ids >= 0).any() for ids in (bump, *linked.values())):
@@ -256,20 +259,23 @@ def _geometry(triangles, normals, prim, bary, position, ng, ns):
     normals, unit, in ``ns`` (``ng`` where they cancel out)."""
     for i in range(len(prim)):
         t = prim[i]
-        e1, e2, n = np.empty(3), np.empty(3), np.empty(3)
-        for c in range(3):
-            a, b, d = np.float64(triangles[t, 0, c]), np.float64(triangles[t, 1, c]), np.float64(triangles[t, 2, c])
-            position[i, c] = bary[i, 0] * a + bary[i, 1] * b + bary[i, 2] * d
-            e1[c], e2[c] = b - a, d - a
-            n[c] = bary[i, 0] * np.float64(normals[t, 0, c]) + bary[i, 1] * np.float64(normals[t, 1, c]) \
-                + bary[i, 2] * np.float64(normals[t, 2, c])
-        g0, g1, g2 = e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]
+        w0, w1, w2 = bary[i, 0], bary[i, 1], bary[i, 2]
+        a0, a1, a2 = np.float64(triangles[t, 0, 0]), np.float64(triangles[t, 0, 1]), np.float64(triangles[t, 0, 2])
+        b0, b1, b2 = np.float64(triangles[t, 1, 0]), np.float64(triangles[t, 1, 1]), np.float64(triangles[t, 1, 2])
+        d0, d1, d2 = np.float64(triangles[t, 2, 0]), np.float64(triangles[t, 2, 1]), np.float64(triangles[t, 2, 2])
+        position[i, 0], position[i, 1], position[i, 2] = w0 * a0 + w1 * b0 + w2 * d0, w0 * a1 + w1 * b1 + w2 * d1, \
+            w0 * a2 + w1 * b2 + w2 * d2
+        e10, e11, e12, e20, e21, e22 = b0 - a0, b1 - a1, b2 - a2, d0 - a0, d1 - a1, d2 - a2
+        n0 = w0 * np.float64(normals[t, 0, 0]) + w1 * np.float64(normals[t, 1, 0]) + w2 * np.float64(normals[t, 2, 0])
+        n1 = w0 * np.float64(normals[t, 0, 1]) + w1 * np.float64(normals[t, 1, 1]) + w2 * np.float64(normals[t, 2, 1])
+        n2 = w0 * np.float64(normals[t, 0, 2]) + w1 * np.float64(normals[t, 1, 2]) + w2 * np.float64(normals[t, 2, 2])
+        g0, g1, g2 = e11 * e22 - e12 * e21, e12 * e20 - e10 * e22, e10 * e21 - e11 * e20
         length = np.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
         if length > 0.0:
             g0, g1, g2 = g0 / length, g1 / length, g2 / length
         ng[i, 0], ng[i, 1], ng[i, 2] = g0, g1, g2
-        length = np.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
-        u0, u1, u2 = (n[0] / length, n[1] / length, n[2] / length) if length > 0.0 else (n[0], n[1], n[2])
+        length = np.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        u0, u1, u2 = (n0 / length, n1 / length, n2 / length) if length > 0.0 else (n0, n1, n2)
         if u0 * u0 + u1 * u1 + u2 * u2 > 0.5:
             ns[i, 0], ns[i, 1], ns[i, 2] = u0, u1, u2
         else:

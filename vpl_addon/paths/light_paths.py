@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..core.color import largest
 from ..core.sampling import LatinHypercube, cosine_hemisphere, dot
 from ..gather.virtual_lights import STANDARD, VirtualLights
 from ..materials.microfacet import GlossyLobe
@@ -53,14 +54,14 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         rows = np.nonzero(hits.hit)[0]
         surf = shade(scene, dirs, hits, rows)
         incident = power[rows]
-        lit = np.nonzero(surf.albedo.max(axis=1) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
+        lit = np.nonzero(largest(surf.albedo) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
         diffuse = surf.albedo * arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
         found.append(VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi,
                                    np.full(len(lit), bounce, np.int32), np.full(len(lit), STANDARD, np.int8),
                                    path[rows][lit]))
         if bounce == max_bounces:
             break
-        choose_diffuse = np.clip(surf.albedo.max(axis=1), 0.0, 1.0)
+        choose_diffuse = np.clip(largest(surf.albedo), 0.0, 1.0)
         u = rng.random(len(rows))
         keep = u < choose_diffuse
         new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
@@ -68,7 +69,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         if glossy:
             shiny = np.nonzero(~keep & surf.glossy)[0]
             lobe = GlossyLobe.of(surf.take(shiny))
-            choose_glossy = np.minimum(lobe.color.max(axis=1), 1.0 - choose_diffuse[shiny])
+            choose_glossy = np.minimum(largest(lobe.color), 1.0 - choose_diffuse[shiny])
             shiny_keep = u[shiny] < choose_diffuse[shiny] + choose_glossy
             lobe = lobe.take(shiny_keep)
             dirs_g, f_cos_pdf, _ = lobe.sample(rng.random(shiny_keep.sum()), rng.random(shiny_keep.sum()),
@@ -78,7 +79,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
             weight = np.concatenate([weight, f_cos_pdf / choose_glossy[shiny_keep, None]])
         else:
             bouncing = np.nonzero(keep)[0]
-        leaves = (dot(new_dirs, surf.geometric_normal[bouncing]) > 0.0) & (weight.max(axis=1) > 0.0)
+        leaves = (dot(new_dirs, surf.geometric_normal[bouncing]) > 0.0) & (largest(weight) > 0.0)
         sel = bouncing[leaves]  # below the true surface: absorbed
         dirs = new_dirs[leaves]
         power = incident[sel] * weight[leaves]

@@ -28,6 +28,7 @@ from typing import Callable
 
 import numpy as np
 
+from ..core.color import largest
 from ..core.sampling import group_sum
 from ..lights.direct import direct_light
 from ..materials.microfacet import GlossyLobe
@@ -66,7 +67,7 @@ def over_metal(surface: Surface, lobe: GlossyLobe | None, scene, tracer, lights,
                     light = light + vpl_light(end.point, end.owner)
                 out += group_sum(end.owner, end.throughput * light, len(out))
                 following.append(end)
-            shiny = np.nonzero(y.glossy & (carried.max(axis=1) > 0.0))[0]
+            shiny = np.nonzero(y.glossy & (largest(carried) > 0.0))[0]
             following.append(at_metal(y, shiny, owner, carried, lights, tracer, rng, out))
         level = merged(following)
         if not level:

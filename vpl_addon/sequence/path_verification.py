@@ -36,6 +36,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..core.color import largest
 from ..core.sampling import dot
 from ..core.tracer import Hits
 from ..gather.virtual_lights import VirtualLights
@@ -257,7 +258,7 @@ class LightPathStore:
             old_energy = self.vpls.intensity[at[rows]] * (np.pi * self.paths)
             close = np.zeros(len(pending), bool)
             close[rows] = (np.abs(new_energy - old_energy) <= threshold * old_energy).all(axis=1) & \
-                (old_energy.max(axis=1) > 0.0) & ~surf.glossy & \
+                (largest(old_energy) > 0.0) & ~surf.glossy & \
                 (dot(surf.smooth_normal, self.vpls.normal[at[rows]]) >= 1.0 - 1e-9) & \
                 ((after < 0) | (dot(old_dir, surf.geometric_normal) > 0.0))
             left = ~hits.hit & np.isinf(seg["length"][pending])  # left the scene then and now

@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...core.color import largest
 from ...core.compiled import kernel
 from ...lights.direct import direct_light
 from ...materials.surface import Surface, diffuse_bounce
@@ -103,7 +104,7 @@ def estimate_radiosity(scene, tracer, lights, surface: Surface, seeds: np.ndarra
             break
         throughput[rows] = weight
         if depth >= 1:  # Russian roulette on the albedo the path just met
-            survive = np.clip(current.albedo.max(axis=1), 0.0, 1.0)
+            survive = np.clip(largest(current.albedo), 0.0, 1.0)
             keep = u[:, 7] < survive
             throughput[rows[keep]] /= survive[keep, None]
             rows, current, u = rows[keep], current.take(np.nonzero(keep)[0]), u[keep]

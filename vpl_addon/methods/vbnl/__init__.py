@@ -31,14 +31,15 @@ from contextlib import nullcontext
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
-from itertools import islice
+from itertools import chain, islice
 
 import numpy as np
 
-from ...core.color import luminance
+from ...core.color import largest, luminance
 from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import Surface, bounce, diffuse_bounce, shade
+from ...gather.virtual_lights import VirtualLights
 from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
@@ -108,12 +109,12 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
             x = GBuffer.build(scene, tracer, order[lo:lo + step], spp, rng).surface
             y = _bsdf_bounce(scene, tracer, x, rng)
             for _ in range(SPECULAR_EXTENSION):  # Fig. 6b: on metal, the camera path goes on
-                metal = (y.albedo.max(axis=1) == 0.0) & y.glossy
+                metal = (largest(y.albedo) == 0.0) & y.glossy
                 if not metal.any():
                     break
                 y = Surface.concat([y.take(np.nonzero(~metal)[0]),
                                     _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), rng)])
-            y = y.take(np.nonzero(y.albedo.max(axis=1) > 0.0)[0])  # lights hold diffusely reflected light only
+            y = y.take(np.nonzero(largest(y.albedo) > 0.0)[0])  # lights hold diffusely reflected light only
             found_p.append(y.position)
             found_n.append(y.smooth_normal)
             found += len(y)
@@ -162,7 +163,7 @@ def _dropped_shares(lights, which, scene, tracer, per_light, rng):
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
-        mine = lights.share_of(y.position, y.shading_normal, j[rows]) * (y.albedo.max(axis=1) > 0.0)
+        mine = lights.share_of(y.position, y.shading_normal, j[rows]) * (largest(y.albedo) > 0.0)
         area += np.bincount(k[rows], mine * np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3), len(which))
         found += np.bincount(k[rows], mine > 0.0, len(which))
     return area, found
@@ -265,8 +266,14 @@ def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
     the tracer after each batch."""
     with ThreadPoolExecutor(tracer.threads) as pool:
         splitting = Splitting(lights, bounces, 3, pool, tracer.threads)
-        for photons in batches:
-            splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1)
+        held = []
+        for photons in chain(batches, [None]):
+            if photons is not None:
+                held.append(photons)
+            if held and (photons is None or sum(map(len, held)) >= splitting.points):
+                photons = VirtualLights.concat(held)
+                held = []
+                splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1)
             tracer.checkpoint()
     return splitting.total()
 

@@ -55,6 +55,7 @@ class LightGrid:
     dims: np.ndarray  # (3,) int64: cells along each axis; points outside them are covered by no light
     start: np.ndarray  # (S+1,) int64, S a power of two
     light: np.ndarray  # (E,) int64
+    discs: np.ndarray  # (N,8) each light's centre, normal and radius (and a pad): one cache line a light
     longest: int = 1  # the most lights listed in one slot
 
     @staticmethod
@@ -80,8 +81,10 @@ class LightGrid:
         key = np.unique(slot * len(radius) + light)  # sorted by slot, each light once per slot
         slot, light = np.divmod(key, len(radius))
         start = np.searchsorted(slot, np.arange(slots + 1))
+        discs = np.zeros((len(radius), 8))
+        discs[:, :3], discs[:, 3:6], discs[:, 6] = position, normal, radius
         return LightGrid(origin, cell, np.floor((hi.max(axis=0) - origin) / cell).astype(np.int64) + 1, start,
-                         light, max(int(np.max(np.diff(start))), 1))
+                         light, discs, max(int(np.max(np.diff(start))), 1))
 
 
 def _slot(x, y, z, mask):
@@ -136,9 +139,9 @@ class PhotonLights:
 
     @property
     def _kernel_grid(self) -> tuple:
-        """What the kernels read of the lights: the grid and the lights' centres, normals and radii."""
+        """What the kernels read of the lights: the grid with the lights' discs."""
         g = self.grid
-        return g.origin, g.cell, g.dims, g.start, g.light, self.position, self.normal, self.radius, g.longest
+        return g.origin, g.cell, g.dims, g.start, g.light, g.discs, g.longest
 
     def shares(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pairs (point row, light, s_j(point)), by row: the lights whose sphere holds the point, facing its side and
@@ -176,6 +179,7 @@ class Splitting:
         self.lights, self.groups, self.pool = lights, groups, pool
         parts = max(1, workers) if pool is not None else 1
         self.sums = np.zeros((parts, len(lights) * groups, channels))
+        self.points = 1 << 20 if len(lights) > SORTED_FROM else 1  # points worth adding at once
 
     def add(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None):
         """Shares the values of the points (P,3) with unit ``normals`` among the lights covering them."""
@@ -186,16 +190,17 @@ class Splitting:
         grid = self.lights._kernel_grid
         bounds = np.linspace(0, len(points), len(self.sums) + 1).astype(np.int64)
 
-        def part(w):
+        def split(w):
             rows = slice(bounds[w], bounds[w + 1])
-            order = np.argsort(_slots(points[rows], grid)) if len(self.lights) > SORTED_FROM else slice(None)
-            _split(points[rows][order], normals[rows][order], values[rows][order], group[rows][order], self.groups,
-                   grid, self.sums[w])
+            part = (points[rows], normals[rows], values[rows], group[rows])
+            if len(self.lights) > SORTED_FROM:
+                part = _in_slot_order(*part, grid)
+            _split(*part, self.groups, grid, self.sums[w])
 
         if len(self.sums) == 1:
-            part(0)
+            split(0)
         else:
-            list(self.pool.map(part, range(len(self.sums))))
+            list(self.pool.map(split, range(len(self.sums))))
 
     def total(self) -> np.ndarray:
         """(N, groups, C) the values shared so far."""
@@ -217,32 +222,58 @@ def _slot_of(p, grid):
     return _slot_compiled(np.int64(fx), np.int64(fy), np.int64(fz), len(start) - 2)
 
 
+COARSE = 2  # log2 of the cells per side of a block
+
 @kernel
-def _slots(points, grid):
-    """(P,) ``_slot_of`` each of the points (P,3)."""
-    out = np.empty(len(points), np.int64)
+def _block_of(p, grid, mask):
+    origin, cell, dims = grid[0], grid[1], grid[2]
+    fx, fy, fz = (p[0] - origin[0]) / cell, (p[1] - origin[1]) / cell, (p[2] - origin[2]) / cell
+    if not (0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]):
+        return -1
+    return _slot_compiled(np.int64(fx) >> COARSE, np.int64(fy) >> COARSE, np.int64(fz) >> COARSE, mask)
+
+
+@kernel
+def _in_slot_order(points, normals, values, group, grid):
+    """Copies of the points (P,3), their normals, values and groups in the order of their grid slots, without the
+    points outside the grid (no light covers them): a counting sort over the slots."""
+    slots = max((len(grid[3]) - 1) >> (3 * COARSE), 1)
+    slot = np.empty(len(points), np.int64)
+    first = np.zeros(slots + 1, np.int64)
     for i in range(len(points)):
-        out[i] = _slot_of(points[i], grid)
-    return out
+        slot[i] = _block_of(points[i], grid, slots - 1)
+        if slot[i] >= 0:
+            first[slot[i] + 1] += 1
+    for s in range(slots):
+        first[s + 1] += first[s]
+    inside = first[slots]
+    p, n, v, g = np.empty((inside, 3)), np.empty((inside, 3)), np.empty((inside, values.shape[1])), \
+        np.empty(inside, np.int64)
+    for i in range(len(points)):
+        s = slot[i]
+        if s >= 0:
+            k = first[s]
+            first[s] += 1
+            p[k], n[k], v[k], g[k] = points[i], normals[i], values[i], group[i]
+    return p, n, v, g
 
 
 @kernel
 def _covering(p, n, grid, found, weight):
     """How many lights cover the point ``p`` (3,) of normal ``n``; their indices and weights 1 - (d / r_j)^2 go to
     ``found`` and ``weight``."""
-    start, listed, position, normal, radius = grid[3:8]
+    start, listed, discs = grid[3], grid[4], grid[5]
     s = _slot_of(p, grid)
     if s < 0:
         return 0
     k = 0
     for e in range(start[s], start[s + 1]):
         j = listed[e]
-        dx, dy, dz = p[0] - position[j, 0], p[1] - position[j, 1], p[2] - position[j, 2]
-        nx, ny, nz = normal[j, 0], normal[j, 1], normal[j, 2]
-        r2 = radius[j] * radius[j]
+        dx, dy, dz = p[0] - discs[j, 0], p[1] - discs[j, 1], p[2] - discs[j, 2]
+        nx, ny, nz, r = discs[j, 3], discs[j, 4], discs[j, 5], discs[j, 6]
+        r2 = r * r
         d2 = dx * dx + dy * dy + dz * dz
-        if d2 <= r2 and n[0] * nx + n[1] * ny + n[2] * nz > 0.0 and \
-                abs(dx * nx + dy * ny + dz * nz) <= SLAB * radius[j]:
+        if d2 <= r2 and n[0] * nx + n[1] * ny + n[2] * nz > 0.0 and abs(dx * nx + dy * ny + dz * nz) <= SLAB * r:
             found[k] = j
             weight[k] = max(1.0 - d2 / r2, 1e-12)  # the rim still counts
             k += 1
@@ -252,7 +283,7 @@ def _covering(p, n, grid, found, weight):
 @kernel
 def _share_pairs(points, normals, grid):
     """``PhotonLights.shares`` of the points (P,3) with ``normals``: (rows, lights, shares)."""
-    longest = grid[8]
+    longest = grid[6]
     found, weight = np.empty(longest, np.int64), np.empty(longest)
     rows, light, share = np.empty(4 * len(points), np.int64), np.empty(4 * len(points), np.int64), \
         np.empty(4 * len(points))
@@ -279,7 +310,7 @@ def _grown(a, size):
 @kernel
 def _split(points, normals, values, group, groups, grid, out):
     """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``PhotonLights.spread``."""
-    longest = grid[8]
+    longest = grid[6]
     found, weight = np.empty(longest, np.int64), np.empty(longest)
     for i in range(len(points)):
         k = _covering(points[i], normals[i], grid, found, weight)

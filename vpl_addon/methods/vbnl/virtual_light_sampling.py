@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ...core.color import largest
 from ...core.compiled import kernel
 from ...core.sampling import dot, group_sum, sample_cdf, uniform_cone
 from ...lights.direct import direct_light
@@ -126,7 +127,7 @@ def _light_directions(point, lights, rng, choice, cdf, total_power):
 def _covering(lights, y):
     """``PhotonLights.shares`` at the hits ``y`` that have a diffuse colour: the lights hold no light of a pure
     metal (s_j(y) = 0 there)."""
-    diffuse = np.nonzero(y.albedo.max(axis=1) > 0.0)[0]
+    diffuse = np.nonzero(largest(y.albedo) > 0.0)[0]
     if len(diffuse) == len(y):
         return lights.shares(y.position, y.shading_normal)
     pair, light, share = lights.shares(y.position[diffuse], y.shading_normal[diffuse])
