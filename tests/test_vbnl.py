@@ -8,9 +8,10 @@ from scipy.spatial import cKDTree
 
 from conftest import plane_scene
 from vpl_addon.core.tracer import Tracer
+from vpl_addon.gather.virtual_lights import VirtualLights
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodContext, MethodSettings, place
-from vpl_addon.methods.vbnl import PATHS_PER_BATCH, VBNLSettings, catchment, photon_batches
+from vpl_addon.methods.vbnl import PATHS_PER_BATCH, VBNLSettings, catchment, photon_batches, split_photons
 from vpl_addon.methods.vbnl import photon_lights
 from vpl_addon.methods.vbnl.photon_lights import SLAB, PhotonLights, Splitting
 from vpl_addon.methods.vbnl import sample_elimination
@@ -177,7 +178,7 @@ def test_shares_from_the_light_grid_are_those_of_every_pair():
 
 @pytest.mark.parametrize("sorted_from", [photon_lights.SORTED_FROM, 0])
 def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group(sorted_from, monkeypatch):
-    """In the points' order and in the order of their grid slots (``SORTED_FROM`` lights, here 0), on one thread
+    """In the points' order and in the order of their grid blocks (``SORTED_FROM`` lights, here 0), on one thread
     and on three, batch after batch into the same sums."""
     monkeypatch.setattr(photon_lights, "SORTED_FROM", sorted_from)
     rng = np.random.default_rng(4)
@@ -194,6 +195,24 @@ def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group(s
         for split in (lights.spread(points, normals, values, group, 4),
                       lights.spread(points, normals, values, group, 4, pool, 3), in_batches.total()):
             assert np.allclose(split, expected.reshape(300, 4, 3), rtol=1e-9, atol=1e-13)
+
+
+def test_photons_held_and_split_a_number_at_a_time_are_split_as_one_batch(monkeypatch):
+    """Above ``SORTED_FROM`` lights the placement holds batches until it has ``SORTED_POINTS`` photons (here 0
+    lights and 2,500 photons; 10 batches of 1,000): every photon is split once, the last held ones too."""
+    monkeypatch.setattr(photon_lights, "SORTED_FROM", 0)
+    monkeypatch.setattr(photon_lights, "SORTED_POINTS", 2500)
+    rng = np.random.default_rng(5)
+    lights = box_lights(300, rng)
+    points, normals = points_near_box_faces(10_000, rng)
+    values, bounce = rng.random((10_000, 3)), rng.integers(1, 5, 10_000)
+    batches = [VirtualLights(points[part], normals[part], values[part], bounce[part].astype(np.int32),
+                             np.zeros(len(part), np.int8), part) for part in np.array_split(np.arange(10_000), 10)]
+    tracer = Tracer(plane_scene().triangles)
+    split = split_photons(lights, iter(batches), 4, tracer)
+    tracer.close()
+    assert np.allclose(split, lights.spread(points, normals, values, bounce - 1, 4), rtol=1e-9, atol=1e-13)
+    assert split.sum() > 0.5 * values.sum()
 
 
 def test_photon_batches_are_the_same_on_any_number_of_threads():

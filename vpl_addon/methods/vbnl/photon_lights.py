@@ -39,9 +39,11 @@ SLAB = 0.02  # a light covers points within this many radii of its tangent plane
 # example scenes are unchanged and the sphere of cornell_textured within noise)
 CELL = 1.0  # the grid's cell, in median light radii (about 10 lights listed per cell at alpha = 2)
 LISTED = 64  # at most this many cell entries per light on average: the cell grows for lights of very unequal size
-SORTED_FROM = 32768  # lights from which photons are split in the order of their grid slots (``Splitting``): per
-# 119K photons of cornell_area, 100,000 lights took 65 ms in path order and 36 + 8 ms for sorting in slot order,
-# 4,096 lights (in cache anyway) 26 ms against 21 + 11
+SORTED_FROM = 32768  # lights from which photons are split a million at a time in the order of grid blocks
+# (``Splitting``): at 100,000 lights (38 MB of discs, listings and sums, more than the cache) 700-760 ns a photon in
+# path order, 350-520 ns in block order; at 4,096 and 20,000 lights, in cache anyway, path order is 10-15 % faster
+SORTED_POINTS = 1 << 20  # points split at once in block order: more of them share a block's lights in cache
+BLOCK = 2  # a block is 2^BLOCK cells a side
 HASH = (73856093, 19349663, 83492791)  # Teschner et al. 2003, spatial hashing of a cell's integer coordinates
 
 
@@ -171,15 +173,15 @@ class Splitting:
     """Photon splitting (sec. 3.3) of batch after batch of points among ``lights``: their values (P, C) shared
     among the covering lights, kept apart by ``group``. With an executor ``pool``, each batch is cut in
     ``workers`` parts summed on its threads, each into a sum of its own held for the whole splitting (no array of
-    the lights' size per batch). With more than ``SORTED_FROM`` lights, a part is put in the order of its points'
-    grid slots first, so that the points that test the same listed lights come one after another and find them
-    in cache."""
+    the lights' size per batch). With more than ``SORTED_FROM`` lights, a part is put in the order of the grid
+    blocks its points fall in first (``_in_block_order``), so that points that test the same lights come one
+    after another and find them in cache; ``points`` says how many points are worth adding at once."""
 
     def __init__(self, lights: PhotonLights, groups: int, channels: int, pool=None, workers: int = 1):
         self.lights, self.groups, self.pool = lights, groups, pool
         parts = max(1, workers) if pool is not None else 1
         self.sums = np.zeros((parts, len(lights) * groups, channels))
-        self.points = 1 << 20 if len(lights) > SORTED_FROM else 1  # points worth adding at once
+        self.points = SORTED_POINTS if len(lights) > SORTED_FROM else 1
 
     def add(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None):
         """Shares the values of the points (P,3) with unit ``normals`` among the lights covering them."""
@@ -194,7 +196,7 @@ class Splitting:
             rows = slice(bounds[w], bounds[w + 1])
             part = (points[rows], normals[rows], values[rows], group[rows])
             if len(self.lights) > SORTED_FROM:
-                part = _in_slot_order(*part, grid)
+                part = _in_block_order(*part, grid)
             _split(*part, self.groups, grid, self.sums[w])
 
         if len(self.sums) == 1:
@@ -222,22 +224,22 @@ def _slot_of(p, grid):
     return _slot_compiled(np.int64(fx), np.int64(fy), np.int64(fz), len(start) - 2)
 
 
-COARSE = 2  # log2 of the cells per side of a block
-
 @kernel
 def _block_of(p, grid, mask):
+    """The hash slot, in ``mask`` + 1 slots, of the block of 2^BLOCK x 2^BLOCK x 2^BLOCK grid cells that holds the
+    point ``p`` (3,), or -1 outside the grid."""
     origin, cell, dims = grid[0], grid[1], grid[2]
     fx, fy, fz = (p[0] - origin[0]) / cell, (p[1] - origin[1]) / cell, (p[2] - origin[2]) / cell
     if not (0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]):
         return -1
-    return _slot_compiled(np.int64(fx) >> COARSE, np.int64(fy) >> COARSE, np.int64(fz) >> COARSE, mask)
+    return _slot_compiled(np.int64(fx) >> BLOCK, np.int64(fy) >> BLOCK, np.int64(fz) >> BLOCK, mask)
 
 
 @kernel
-def _in_slot_order(points, normals, values, group, grid):
-    """Copies of the points (P,3), their normals, values and groups in the order of their grid slots, without the
-    points outside the grid (no light covers them): a counting sort over the slots."""
-    slots = max((len(grid[3]) - 1) >> (3 * COARSE), 1)
+def _in_block_order(points, normals, values, group, grid):
+    """Copies of the points (P,3), their normals, values and groups in the order of the grid blocks they fall in
+    (``_block_of``), without the points outside the grid (no light covers them): a counting sort."""
+    slots = max((len(grid[3]) - 1) >> (3 * BLOCK), 1)
     slot = np.empty(len(points), np.int64)
     first = np.zeros(slots + 1, np.int64)
     for i in range(len(points)):
