@@ -23,7 +23,7 @@ from ..core.color import largest
 from ..core.sampling import dot, group_sum, power_heuristic, stratified_2d
 from ..materials.microfacet import GlossyLobe
 from ..core.compiled import kernel
-from ..materials.surface import bump_shadowing
+from ..materials.surface import bent, bump_shadowing
 
 RAYS_PER_BATCH = 1 << 18  # light samples at once: a batch's arrays (about 200 bytes a sample) stay near 50 MB
 
@@ -96,9 +96,9 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
     lo, hi, owner, origin, p, ng, ns, smooth = at
     cos = np.empty(len(wi))
     sel = np.nonzero(_facing(owner, ng, ns, wi, weight, cos))[0]
-    bent = np.nonzero((smooth != ns).any(axis=1)[owner[sel]])[0]  # samples at points a normal map bent
-    if len(bent):
-        rows, points = sel[bent], owner[sel[bent]]
+    turned = np.nonzero(bent(smooth, ns)[owner[sel]])[0]  # samples at points a normal map bent
+    if len(turned):
+        rows, points = sel[turned], owner[sel[turned]]
         cos[rows] *= bump_shadowing(smooth[points], ns[points], wi[rows])
         sel = sel[cos[sel] > 0.0]
     if len(sel) == 0:
