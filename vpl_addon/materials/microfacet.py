@@ -62,9 +62,20 @@ def schlick(f0: np.ndarray, mu: np.ndarray) -> np.ndarray:
 
 
 def f82_b(f0: np.ndarray, tint: np.ndarray) -> np.ndarray:
-    """b of the F82-tint model: the edge darkening that makes F(1/7) = tint x Schlick(F0, 1/7)."""
-    at_bar = f0 + (1.0 - f0) * (1.0 - MU_BAR) ** 5
-    return at_bar * (1.0 - tint) / (MU_BAR * (1.0 - MU_BAR) ** 6)
+    """b of the F82-tint model: the edge darkening that makes F(1/7) = tint x Schlick(F0, 1/7) (``edge``)."""
+    return _each(_edge_all, f0, tint)
+
+
+@kernel
+def edge(f0, tint):
+    """``f82_b`` of one channel."""
+    return (f0 + (1.0 - f0) * (1.0 - MU_BAR) ** 5) * (1.0 - tint) / (MU_BAR * (1.0 - MU_BAR) ** 6)
+
+
+@kernel
+def _edge_all(f0, tint, out):
+    for i in range(len(out)):
+        out[i] = edge(f0[i], tint[i])
 
 
 def fresnel(f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> np.ndarray:

@@ -22,7 +22,7 @@ from ..core.color import largest
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take, take_fields
-from .microfacet import f82_b, layer_albedo, smith_g1, specular_layer
+from .microfacet import edge, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
 ROUGH_COAT = 0.5  # Roughness from which a dielectric layer counts as a rough coat (``Surface.rough_coat``)
@@ -84,27 +84,54 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     mat = scene.material[prim]
     m = scene.materials
     inputs = _inputs(scene, mat, prim, bary, ns)
-    flip = (dot(ng, dirs[rows]) > 0.0)[:, None]  # turned toward the ray after the normal map, as Cycles does
-    ng = np.where(flip, -ng, ng)
-    smooth = np.where(flip, -ns, ns)
-    ns = np.where(flip, -inputs["normal"], inputs["normal"])
-    base, metallic, roughness = np.clip(inputs["base_color"], 0.0, 1.0), inputs["metallic"], inputs["roughness"]
-    f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))  # per material, then point
-    tint, f0, eta = m.specular_tint.astype(np.float64)[mat], f0[mat], eta[mat]
-    glass = np.nonzero(m.glass[mat])[0]
-    if len(glass):  # a ray stopped by a pane (``cutouts``): all it does is reflect, as a white mirror
-        base[glass], metallic[glass], tint[glass], eta[glass], f0[glass] = 1.0, 1.0, 1.0, 1.0, 0.0
-    dielectric = f0[:, None] * tint
-    below = (1.0 - metallic)[:, None] * base
+    incident = dirs[rows]
+    smooth, normal = np.empty((len(prim), 3)), np.empty((len(prim), 3))
+    _turned(incident, ng, ns, inputs["normal"], smooth, normal)  # toward the ray after the normal map, as Cycles
+    f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
+    base, metallic = inputs["base_color"], inputs["metallic"]
+    edges, dielectric, below, eta = np.empty((len(prim), 3)), np.empty((len(prim), 3)), np.empty((len(prim), 3)), \
+        eta[mat]
+    _lobes(mat, m.specular_tint.astype(np.float64), f0, m.glass, base, metallic, eta, edges, dielectric, below)
     layered = np.nonzero(eta != 1.0)[0]
     if len(layered):
-        mu = np.clip(-dot(ns[layered], dirs[rows][layered]), 0.0, 1.0)
-        a = layer_albedo(roughness[layered], dielectric[layered], eta[layered], mu)
+        mu = np.clip(-dot(normal[layered], incident[layered]), 0.0, 1.0)
+        a = layer_albedo(inputs["roughness"][layered], dielectric[layered], eta[layered], mu)
         below[layered] *= np.clip(1.0 - largest(a), 0.0, 1.0)[:, None]
-    return Surface(position=position, geometric_normal=ng, shading_normal=ns, prim=prim, material=mat,
-                   albedo=below, roughness=roughness, metallic=metallic, emission=inputs["emission"],
-                   specular=base, edge=f82_b(base, tint), dielectric=dielectric, eta=eta, incident=dirs[rows],
-                   smooth_normal=smooth)
+    return Surface(position=position, geometric_normal=ng, shading_normal=normal, prim=prim, material=mat,
+                   albedo=below, roughness=inputs["roughness"], metallic=metallic, emission=inputs["emission"],
+                   specular=base, edge=edges, dielectric=dielectric, eta=eta, incident=incident, smooth_normal=smooth)
+
+
+@kernel
+def _turned(incident, ng, ns, mapped, smooth, normal):
+    """Turns the geometric normals ``ng`` (in place), the interpolated normals ``ns`` (into ``smooth``) and the
+    normal-mapped ones ``mapped`` (into ``normal``) toward the side the rays ``incident`` come from."""
+    for i in range(len(ng)):
+        sign = -1.0 if ng[i, 0] * incident[i, 0] + ng[i, 1] * incident[i, 1] + ng[i, 2] * incident[i, 2] > 0.0 \
+            else 1.0
+        for c in range(3):
+            ng[i, c] = sign * ng[i, c]
+            smooth[i, c] = sign * ns[i, c]
+            normal[i, c] = sign * mapped[i, c]
+
+
+@kernel
+def _lobes(mat, tint, f0, glass, base, metallic, eta, edges, dielectric, below):
+    """The Principled BSDF's lobes per point from its material ``mat``'s Specular Tint, layer F0 and glass flag
+    and its (textured) Base Color and Metallic: Base Color clamped to [0, 1] (in place), F82's ``edges``, the
+    layer's F0 x tint (``dielectric``) and the diffuse albedo before the layer takes its share (``below``). A ray
+    stopped by a pane (``cutouts``) sees a white mirror: Base Color, Metallic and tint 1, no layer (``eta`` 1)."""
+    for i in range(len(mat)):
+        j = mat[i]
+        f, pane = f0[j], glass[j]
+        if pane:
+            metallic[i], eta[i], f = 1.0, 1.0, 0.0
+        for c in range(3):
+            b, t = 1.0 if pane else min(max(base[i, c], 0.0), 1.0), 1.0 if pane else tint[j, c]
+            base[i, c] = b
+            edges[i, c] = edge(b, t)
+            dielectric[i, c] = f * t
+            below[i, c] = (1.0 - metallic[i]) * b
 
 
 def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:
