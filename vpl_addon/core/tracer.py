@@ -198,12 +198,11 @@ class Tracer:
         ULP_OFFSET float32 steps of the point's (centred) coordinates, and at least extent / 65536 (near the
         centre a few steps of a tiny coordinate are less than embree's error on the triangle's larger ones)."""
         p = np.asarray(p, np.float64)
-        p32 = (p - self.center).astype(np.float32)
-        n = np.asarray(n, np.float32)
-        of_i = (ULP_OFFSET * n).astype(np.int32)
-        by_ulps = (p32.view(np.int32) + np.where(p32 < 0.0, -of_i, of_i)).view(np.float32) - p32
-        absolute = np.float32(self.extent / 65536.0) * n
-        return p + np.where(np.abs(by_ulps) > np.abs(absolute), by_ulps, absolute)
+        out = np.empty(p.shape)
+        n = np.ascontiguousarray(np.broadcast_to(np.asarray(n, np.float32), p.shape))
+        _offset(np.ascontiguousarray(p).reshape(-1, 3), n.reshape(-1, 3), self.center,
+                np.float32(self.extent / 65536.0), out.reshape(-1, 3))
+        return out
 
     def visible(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
                 target_normal: np.ndarray | None = None, origin: np.ndarray | None = None) -> np.ndarray:
@@ -269,3 +268,23 @@ def _segments(p, at, dirs, dist, origin, target, shift, o, d, t):
         else:
             d[i, 0], d[i, 1], d[i, 2] = dirs[i, 0], dirs[i, 1], dirs[i, 2]
         t[i] = length * (1.0 - 1e-5)
+
+
+@kernel
+def _offset(p, n, center, absolute, out):
+    """``Tracer.offset_origin`` in float32 steps, as embree sees the points: each coordinate of p - center moved
+    by ULP_OFFSET n float32 steps away from zero's side or by ``absolute`` n, whichever is larger."""
+    p32, moved = np.empty(p.shape, np.float32), np.empty(p.shape, np.int32)
+    for i in range(len(p)):
+        for c in range(3):
+            p32[i, c] = p[i, c] - center[c]
+    bits = p32.view(np.int32)
+    for i in range(len(p)):
+        for c in range(3):
+            of = np.int32(np.float32(ULP_OFFSET) * n[i, c])
+            moved[i, c] = bits[i, c] - of if p32[i, c] < 0.0 else bits[i, c] + of
+    stepped = moved.view(np.float32)
+    for i in range(len(p)):
+        for c in range(3):
+            by_ulps, step = stepped[i, c] - p32[i, c], absolute * n[i, c]
+            out[i, c] = p[i, c] + (by_ulps if abs(by_ulps) > abs(step) else step)

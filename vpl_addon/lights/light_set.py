@@ -57,7 +57,11 @@ class LightSet:
         origins, dirs, power = np.zeros((count, 3)), np.zeros((count, 3)), np.zeros((count, 3))
         for index, light in enumerate(self.lights):
             m = np.nonzero(choice == index)[0]
-            if len(m):
+            if len(m) == count:  # every path from this light: no scattering into the rows
+                origins, dirs, power = light.emit(count, rng, self.center, self.radius)
+                origins, dirs = np.asarray(origins, np.float64), np.asarray(dirs, np.float64)
+                power = power / prob[index]
+            elif len(m):
                 o, d, w = light.emit(len(m), rng, self.center, self.radius)
                 origins[m], dirs[m], power[m] = o, d, w / prob[index]
         return (origins, dirs, power, choice) if with_light else (origins, dirs, power)
