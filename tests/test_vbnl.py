@@ -264,19 +264,24 @@ def test_catchment_of_lights_on_a_thin_strip_is_measured_again():
     assert np.abs(area / (w * 2 * np.sqrt(r * r - x * x)) - 1).max() < 0.15
 
 
-def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
-    """A point light between a grey floor and a ceiling the camera looks up at: the candidates land on the floor
-    (the camera's BSDF rays bounce down from the ceiling), and with one bounce their radiance L_j = I_j / A_j is
-    the floor's reflected radiance, albedo E / pi with E = P cos / (4 pi d^2)."""
+def lit_floor(lamp, max_bounces=1):
+    """A grey floor and a ceiling 2 m above it, a camera between them looking up at the ceiling, and ``lamp``."""
     from vpl_addon.core.camera import Camera, view_window
     from vpl_addon.core.scene import Scene
-    lamp = PointLight("lamp", [0.0, 0.0, 1.0], [400.0] * 3)
     quad = np.array([[[-2, -2, 0], [2, -2, 0], [2, 2, 0]], [[-2, -2, 0], [2, 2, 0], [-2, 2, 0]]], float)
     up = np.diag([1.0, -1.0, -1.0, 1.0])
     up[:3, 3] = [0, 0, 1.5]
     camera = Camera(up, 32, 32, view_window(32, 32, orthographic=True, ortho_scale=3.0), orthographic=True)
-    floor = plane_scene()
-    scene = Scene.build(np.concatenate([quad, quad + [0, 0, 2]]), floor.materials, [lamp], camera, max_bounces=1)
+    return Scene.build(np.concatenate([quad, quad + [0, 0, 2]]), plane_scene().materials, [lamp], camera,
+                       max_bounces=max_bounces)
+
+
+def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
+    """A point light between a grey floor and a ceiling the camera looks up at: the candidates land on the floor
+    (the camera's BSDF rays bounce down from the ceiling), and with one bounce their radiance L_j = I_j / A_j is
+    the floor's reflected radiance, albedo E / pi with E = P cos / (4 pi d^2)."""
+    lamp = PointLight("lamp", [0.0, 0.0, 1.0], [400.0] * 3)
+    scene = lit_floor(lamp)
     tracer = Tracer(scene.triangles)
     context = MethodContext(scene, tracer, LightSet(scene), np.random.default_rng(0), max_bounces=1)
     lights, info = place("vbnl", context, MethodSettings(vpls=512, vbnl=VBNLSettings(photons=1 << 19)))
@@ -288,6 +293,19 @@ def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
     inner = np.abs(lights.position[:, :2]).max(axis=1) < 1.5
     assert np.median(lights.radiance[inner, 0] / expected[inner]) == pytest.approx(1.0, abs=0.05)
     assert np.isfinite(lights.radiance).all() and (lights.radiance >= 0).all()
+
+
+@pytest.mark.parametrize("threads", [1, 2])
+def test_the_placement_traces_its_photons_on_one_thread_or_more(threads):
+    """One tracing thread while the candidates are found, every thread after: a tracer of one thread has no more
+    to open (the semaphore refuses to release none)."""
+    scene = lit_floor(PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3), max_bounces=2)
+    tracer = Tracer(scene.triangles, threads=threads)
+    context = MethodContext(scene, tracer, LightSet(scene), np.random.default_rng(0), max_bounces=2)
+    lights, info = place("vbnl", context, MethodSettings(vpls=64, vbnl=VBNLSettings(photons=3 * PATHS_PER_BATCH)))
+    tracer.close()
+    assert info["vpls"] == 64 and info["light_paths"] == 3 * PATHS_PER_BATCH
+    assert np.isfinite(lights.intensity).all() and lights.intensity.sum() > 0.0
 
 
 def test_fewer_candidates_than_pixels_come_from_the_whole_image():

@@ -205,7 +205,8 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
         marks["elimination"] = time.perf_counter()
         lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
         marks["catchment"] = time.perf_counter()
-        lanes.release(context.tracer.threads - 1)  # the splitting waits for the photons: trace on every thread
+        if context.tracer.threads > 1:  # the splitting waits for the photons: trace on every thread
+            lanes.release(context.tracer.threads - 1)
         bounces = max(context.max_bounces, 1)
         if state is None:  # intensities divided by the number of paths
             traced = s.photons if len(lights) else 0
