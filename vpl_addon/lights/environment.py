@@ -29,7 +29,8 @@ class EnvironmentLight(Light):
     name = "world"
 
     def __init__(self, image, rotation=np.eye(3)):
-        image = np.asarray(image, np.float64)
+        image = np.asarray(image)  # float32 as the scene holds it (a float64 copy of a 2K map took 48 MB), or float64
+        image = image.astype(np.float32 if image.dtype == np.float32 else np.float64, copy=False)
         self.image = np.maximum(np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
         self.rotation = np.asarray(rotation, np.float64)
         h, w = self.image.shape[:2]
