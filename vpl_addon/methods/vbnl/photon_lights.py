@@ -215,24 +215,27 @@ def _rows(a) -> np.ndarray:
 
 
 @kernel
+def _cell_of(p, grid):
+    """(inside, x, y, z): whether the point ``p`` (3,) lies in the grid, and the integer coordinates of its cell."""
+    origin, cell, dims = grid[0], grid[1], grid[2]
+    fx, fy, fz = (p[0] - origin[0]) / cell, (p[1] - origin[1]) / cell, (p[2] - origin[2]) / cell
+    inside = 0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]
+    return inside, np.int64(fx) if inside else 0, np.int64(fy) if inside else 0, np.int64(fz) if inside else 0
+
+
+@kernel
 def _slot_of(p, grid):
     """The hash slot of the grid cell that holds the point ``p`` (3,), or -1 outside the grid."""
-    origin, cell, dims, start = grid[0], grid[1], grid[2], grid[3]
-    fx, fy, fz = (p[0] - origin[0]) / cell, (p[1] - origin[1]) / cell, (p[2] - origin[2]) / cell
-    if not (0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]):
-        return -1
-    return _slot_compiled(np.int64(fx), np.int64(fy), np.int64(fz), len(start) - 2)
+    inside, x, y, z = _cell_of(p, grid)
+    return _slot_compiled(x, y, z, len(grid[3]) - 2) if inside else -1
 
 
 @kernel
 def _block_of(p, grid, mask):
     """The hash slot, in ``mask`` + 1 slots, of the block of 2^BLOCK x 2^BLOCK x 2^BLOCK grid cells that holds the
     point ``p`` (3,), or -1 outside the grid."""
-    origin, cell, dims = grid[0], grid[1], grid[2]
-    fx, fy, fz = (p[0] - origin[0]) / cell, (p[1] - origin[1]) / cell, (p[2] - origin[2]) / cell
-    if not (0.0 <= fx < dims[0] and 0.0 <= fy < dims[1] and 0.0 <= fz < dims[2]):
-        return -1
-    return _slot_compiled(np.int64(fx) >> BLOCK, np.int64(fy) >> BLOCK, np.int64(fz) >> BLOCK, mask)
+    inside, x, y, z = _cell_of(p, grid)
+    return _slot_compiled(x >> BLOCK, y >> BLOCK, z >> BLOCK, mask) if inside else -1
 
 
 @kernel
