@@ -9,12 +9,11 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    extending the camera path through it when rendering (``virtual_light_sampling``), so no light sits on metal
    and no directional emission profile is needed (a deviation from sec. 3.3's 16x16 octahedral maps).
 2. adaptive sample elimination (sec. 3.2, ``sample_elimination``) keeps N with radii r = alpha r_max;
-3. photon splitting (sec. 3.3, ``Splitting``): ``photons`` light paths, traced in batches on a thread
-   of their own while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held) and on
-   all the tracer's threads after them, share
-   the intensity of every vertex among the lights covering it, kept apart by bounce so that
-   an extended camera path uses only light of as many fewer bounces as it has extra vertices (the scene's bounce
-   limit holds for the whole path).
+3. photon splitting (sec. 3.3, ``Splitting``): ``photons`` light paths, traced in batches on a thread of their own
+   while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held) and on all the
+   tracer's threads after them, share the intensity of every vertex among the lights covering it, kept apart by
+   bounce so that an extended camera path uses only light of as many fewer bounces as it has extra vertices (the
+   scene's bounce limit holds for the whole path).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
 
 In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
@@ -37,9 +36,9 @@ import numpy as np
 
 from ...core.color import largest, luminance
 from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
+from ...gather.virtual_lights import VirtualLights
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import Surface, bounce, diffuse_bounce, shade
-from ...gather.virtual_lights import VirtualLights
 from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
@@ -181,8 +180,8 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     """(lights, info): sec. 3's placement. The photons' light paths do not depend on the lights, so they are traced
     on a thread of their own (``photon_batches``), with random numbers of their own, while the candidates are
     found and thinned, and on as many threads as the tracer has after that: at most ``AHEAD`` batches ahead of
-    their splitting. A sequence's kept paths are followed first, alone, so that the
-    rays the tracer counts meanwhile are theirs (``light_path_rays``, the paper's Fig. 7 count)."""
+    their splitting. A sequence's kept paths are followed first, alone, so that the rays the tracer counts
+    meanwhile are theirs (``light_path_rays``, the paper's Fig. 7 count)."""
     s = settings.vbnl
     marks = {"start": time.perf_counter()}
     seed = tuple(int(x) for x in context.rng.integers(1 << 63, size=2))
@@ -263,8 +262,9 @@ def _ahead(jobs, executor, depth: int):
 
 def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
     """(N, bounces, 3) photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the
-    lights covering them, kept apart by bounce, each batch split over the tracer's threads; a ``checkpoint`` of
-    the tracer after each batch."""
+    lights covering them, kept apart by bounce, split over the tracer's threads a batch at a time (or, with many
+    lights, as many batches at a time as make ``Splitting.points`` photons); a ``checkpoint`` of the tracer after
+    each batch."""
     with ThreadPoolExecutor(tracer.threads) as pool:
         splitting = Splitting(lights, bounces, 3, pool, tracer.threads)
         held = []
