@@ -115,6 +115,13 @@ def grid_lights(spacing_=0.05, radius=0.1, normal=(0, 0, 1)):
     return PhotonLights(np.c_[xy, np.zeros(n)], np.tile(normal, (n, 1)), np.full(n, radius), np.zeros((n, 3)))
 
 
+def spread(lights, points, normals, values, group=None, groups=1, pool=None, workers=1):
+    """(N, groups, C) the values of one batch of points shared among the lights (``Splitting``)."""
+    splitting = Splitting(lights, groups, values.shape[1], pool, workers)
+    splitting.add(points, normals, values, group)
+    return splitting.total()
+
+
 def test_shares_are_a_partition_of_unity_and_splitting_conserves_intensity():
     lights = grid_lights()
     rng = np.random.default_rng(0)
@@ -124,8 +131,8 @@ def test_shares_are_a_partition_of_unity_and_splitting_conserves_intensity():
     assert np.allclose(np.bincount(rows, share, 5000), 1.0)
     assert (np.linalg.norm(points[rows] - lights.position[light], axis=1) <= lights.radius[light]).all()
     values = rng.random((5000, 3))
-    assert np.allclose(lights.spread(points, up, values).sum(axis=0), values.sum(axis=0))
-    assert lights.spread(points, -up, values).sum() == 0.0  # photons on the other side light nothing
+    assert np.allclose(spread(lights, points, up, values).sum(axis=0), values.sum(axis=0))
+    assert spread(lights, points, -up, values).sum() == 0.0  # photons on the other side light nothing
 
 
 def box_lights(count, rng):
@@ -192,8 +199,8 @@ def test_photon_splitting_on_threads_sums_the_shared_values_by_light_and_group(s
         in_batches = Splitting(lights, 4, 3, pool, 3)
         for part in np.array_split(np.arange(10_000), 7):
             in_batches.add(points[part], normals[part], values[part], group[part])
-        for split in (lights.spread(points, normals, values, group, 4),
-                      lights.spread(points, normals, values, group, 4, pool, 3), in_batches.total()):
+        for split in (spread(lights, points, normals, values, group, 4),
+                      spread(lights, points, normals, values, group, 4, pool, 3), in_batches.total()):
             assert np.allclose(split, expected.reshape(300, 4, 3), rtol=1e-9, atol=1e-13)
 
 
@@ -211,7 +218,7 @@ def test_photons_held_and_split_a_number_at_a_time_are_split_as_one_batch(monkey
     tracer = Tracer(plane_scene().triangles)
     split = split_photons(lights, iter(batches), 4, tracer)
     tracer.close()
-    assert np.allclose(split, lights.spread(points, normals, values, bounce - 1, 4), rtol=1e-9, atol=1e-13)
+    assert np.allclose(split, spread(lights, points, normals, values, bounce - 1, 4), rtol=1e-9, atol=1e-13)
     assert split.sum() > 0.5 * values.sum()
 
 

@@ -159,15 +159,6 @@ class PhotonLights:
         rows, covering, share = self.shares(points, normals)
         return np.bincount(rows, share * (covering == light[rows]), len(points))
 
-    def spread(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None,
-               groups: int = 1, pool=None, workers: int = 1) -> np.ndarray:
-        """(N, groups, C): per-point values (P, C) shared among the covering lights, kept apart by ``group`` (P,)
-        in [0, groups); a point no light covers adds nothing. Photon splitting (sec. 3.3) of one batch
-        (``Splitting``, with ``pool`` and ``workers`` as there)."""
-        splitting = Splitting(self, groups, np.shape(values)[1], pool, workers)
-        splitting.add(points, normals, values, group)
-        return splitting.total()
-
 
 class Splitting:
     """Photon splitting (sec. 3.3) of batch after batch of points among ``lights``: their values (P, C) shared
@@ -314,7 +305,7 @@ def _grown(a, size):
 
 @kernel
 def _split(points, normals, values, group, groups, grid, out):
-    """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``PhotonLights.spread``."""
+    """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``Splitting.add``."""
     longest = grid[6]
     found, weight = np.empty(longest, np.int64), np.empty(longest)
     for i in range(len(points)):
