@@ -88,9 +88,8 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     smooth, normal = np.empty((len(prim), 3)), np.empty((len(prim), 3))
     _turned(incident, ng, ns, inputs["normal"], smooth, normal)  # toward the ray after the normal map, as Cycles
     f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
-    base, metallic = inputs["base_color"], inputs["metallic"]
-    edges, dielectric, below, eta = np.empty((len(prim), 3)), np.empty((len(prim), 3)), np.empty((len(prim), 3)), \
-        eta[mat]
+    base, metallic, eta = inputs["base_color"], inputs["metallic"], eta[mat]
+    edges, dielectric, below = (np.empty((len(prim), 3)) for _ in range(3))
     _lobes(mat, m.specular_tint.astype(np.float64), f0, m.glass, base, metallic, eta, edges, dielectric, below)
     layered = np.nonzero(eta != 1.0)[0]
     if len(layered):

@@ -55,12 +55,12 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         surf = shade(scene, dirs, hits, rows)
         incident = power[rows]
         lit = np.nonzero(largest(surf.albedo) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
-        count = len(lit)
-        if count == len(rows):  # every hit: no copies
+        lights_left = len(lit)
+        if lights_left == len(rows):  # every hit: no copies
             lit = slice(None)
         diffuse = surf.albedo * arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
         found.append(VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi,
-                                   np.full(count, bounce, np.int32), np.full(count, STANDARD, np.int8),
+                                   np.full(lights_left, bounce, np.int32), np.full(lights_left, STANDARD, np.int8),
                                    path[rows][lit]))
         if bounce == max_bounces:
             break
