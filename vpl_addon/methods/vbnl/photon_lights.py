@@ -188,6 +188,8 @@ class Splitting:
             part = (points[rows], normals[rows], values[rows], group[rows])
             if len(self.lights) > SORTED_FROM:
                 part = _in_block_order(*part, grid)
+            else:
+                part = (*part, _slots(part[0], grid))
             _split(*part, self.groups, grid, self.sums[w])
 
         if len(self.sums) == 1:
@@ -222,22 +224,27 @@ def _slot_of(p, grid):
 
 
 @kernel
-def _block_of(p, grid, mask):
-    """The hash slot, in ``mask`` + 1 slots, of the block of 2^BLOCK x 2^BLOCK x 2^BLOCK grid cells that holds the
-    point ``p`` (3,), or -1 outside the grid."""
-    inside, x, y, z = _cell_of(p, grid)
-    return _slot_compiled(x >> BLOCK, y >> BLOCK, z >> BLOCK, mask) if inside else -1
+def _slots(points, grid):
+    """(P,) the hash slot of each point's cell (``_slot_of``)."""
+    slot = np.empty(len(points), np.int64)
+    for i in range(len(points)):
+        slot[i] = _slot_of(points[i], grid)
+    return slot
 
 
 @kernel
 def _in_block_order(points, normals, values, group, grid):
-    """Copies of the points (P,3), their normals, values and groups in the order of the grid blocks they fall in
-    (``_block_of``), without the points outside the grid (no light covers them): a counting sort."""
+    """Copies of the points (P,3), their normals, values and groups in the order of the grid blocks (of 2^BLOCK
+    x 2^BLOCK x 2^BLOCK cells, hashed) they fall in, without the points outside the grid (no light covers them),
+    and their cells' slots (``_slots``): a counting sort."""
     slots = max((len(grid[3]) - 1) >> (3 * BLOCK), 1)
-    slot = np.empty(len(points), np.int64)
+    cell_slots = len(grid[3]) - 2
+    slot, cell_slot = np.empty(len(points), np.int64), np.empty(len(points), np.int64)
     first = np.zeros(slots + 1, np.int64)
     for i in range(len(points)):
-        slot[i] = _block_of(points[i], grid, slots - 1)
+        inside, x, y, z = _cell_of(points[i], grid)
+        slot[i] = _slot_compiled(x >> BLOCK, y >> BLOCK, z >> BLOCK, slots - 1) if inside else -1
+        cell_slot[i] = _slot_compiled(x, y, z, cell_slots)
         if slot[i] >= 0:
             first[slot[i] + 1] += 1
     for s in range(slots):
@@ -245,34 +252,33 @@ def _in_block_order(points, normals, values, group, grid):
     inside = first[slots]
     p, n, v, g = np.empty((inside, 3)), np.empty((inside, 3)), np.empty((inside, values.shape[1])), \
         np.empty(inside, np.int64)
+    c = np.empty(inside, np.int64)
     for i in range(len(points)):
         s = slot[i]
         if s >= 0:
             k = first[s]
             first[s] += 1
-            p[k], n[k], v[k], g[k] = points[i], normals[i], values[i], group[i]
-    return p, n, v, g
+            p[k], n[k], v[k], g[k], c[k] = points[i], normals[i], values[i], group[i], cell_slot[i]
+    return p, n, v, g, c
 
 
 @kernel
-def _covering(p, n, grid, found, weight):
-    """How many lights cover the point ``p`` (3,) of normal ``n``; their indices and weights 1 - (d / r_j)^2 go to
-    ``found`` and ``weight``."""
+def _covering(p, n, s, grid, found, weight):
+    """How many lights cover the point ``p`` (3,) of normal ``n`` in the cell of slot ``s`` (``_slot_of``); their
+    indices and weights 1 - (d / r_j)^2 go to ``found`` and ``weight``."""
     start, listed, discs = grid[3], grid[4], grid[5]
-    s = _slot_of(p, grid)
     if s < 0:
         return 0
     k = 0
-    for e in range(start[s], start[s + 1]):
+    for e in range(start[s], start[s + 1]):  # without a branch: whether a light covers the point is a coin toss
         j = listed[e]
         dx, dy, dz = p[0] - discs[j, 0], p[1] - discs[j, 1], p[2] - discs[j, 2]
         nx, ny, nz, r = discs[j, 3], discs[j, 4], discs[j, 5], discs[j, 6]
         r2 = r * r
         d2 = dx * dx + dy * dy + dz * dz
-        if d2 <= r2 and n[0] * nx + n[1] * ny + n[2] * nz > 0.0 and abs(dx * nx + dy * ny + dz * nz) <= SLAB * r:
-            found[k] = j
-            weight[k] = max(1.0 - d2 / r2, 1e-12)  # the rim still counts
-            k += 1
+        found[k] = j
+        weight[k] = max(1.0 - d2 / r2, 1e-12)  # the rim still counts
+        k += (d2 <= r2) & (n[0] * nx + n[1] * ny + n[2] * nz > 0.0) & (abs(dx * nx + dy * ny + dz * nz) <= SLAB * r)
     return k
 
 
@@ -285,7 +291,7 @@ def _share_pairs(points, normals, grid):
         np.empty(4 * len(points))
     m = 0
     for i in range(len(points)):
-        k = _covering(points[i], normals[i], grid, found, weight)
+        k = _covering(points[i], normals[i], _slot_of(points[i], grid), grid, found, weight)
         if m + k > len(rows):
             rows, light, share = _grown(rows, m + k), _grown(light, m + k), _grown(share, m + k)
         total = weight[:k].sum()
@@ -304,12 +310,13 @@ def _grown(a, size):
 
 
 @kernel
-def _split(points, normals, values, group, groups, grid, out):
-    """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``Splitting.add``."""
+def _split(points, normals, values, group, slot, groups, grid, out):
+    """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``Splitting.add``, the
+    points' cells' ``slot`` given (``_slots``)."""
     longest = grid[6]
     found, weight = np.empty(longest, np.int64), np.empty(longest)
     for i in range(len(points)):
-        k = _covering(points[i], normals[i], grid, found, weight)
+        k = _covering(points[i], normals[i], slot[i], grid, found, weight)
         total = weight[:k].sum()
         for q in range(k):
             share = weight[q] / total
