@@ -44,10 +44,10 @@ def test_vbnl_settings_reach_the_engine_from_the_command_line(tmp_path):
 def test_smc_warmup_draws_reach_the_engine_and_are_checked(ext, tmp_path):
     import bpy
     settings = bpy.context.scene.vpl_gi
-    assert settings.smc_warmup_rounds == 4
+    assert settings.smc_warmup_rounds == 16
     settings.smc_warmup_rounds = 100  # the paper's warm-up
     assert settings.render_settings(("Combined",)).placement.smc.warmup_rounds == 100
-    settings.smc_warmup_rounds = 4
+    settings.smc_warmup_rounds = 16
     code, _, stderr = run_cli("render", EXAMPLES / "cornell_area.blend", "-o", tmp_path / "smc.exr", "--method",
                               "smc", "--smc-warmup-rounds", "0")
     assert_one_line_error(code, stderr, "--smc-warmup-rounds 0", "at least 1")

@@ -148,7 +148,7 @@ def test_smc_lights_a_floor_off_a_wall_like_instant_radiosity():
 def test_the_warm_up_shares_its_draws_of_candidates_in_rounds():
     """A cold start's first iteration fills the set; the warmup others and the frame's share ``warmup_rounds`` draws
     of candidates (as evenly as they go), one each at warmup_rounds >= warmup (the paper's cold start)."""
-    assert warmup_rounds(SMCSettings()) == [1, 25, 25, 25, 25]
+    assert warmup_rounds(SMCSettings()) == [1] + [7] * 4 + [6] * 12
     assert warmup_rounds(SMCSettings(warmup=10, warmup_rounds=4)) == [1, 3, 3, 2, 2]
     assert warmup_rounds(SMCSettings(warmup=4, warmup_rounds=99)) == [1, 1, 1, 1, 1]
     assert warmup_rounds(SMCSettings(warmup=1)) == [1, 1] and warmup_rounds(SMCSettings(warmup=0)) == [1]

@@ -17,7 +17,7 @@ One frame is Algorithm 1 (sec. 3.2):
      unchanged VPL in an unchanged scene the same) and densities with k = max(1, floor(sqrt(I) / 32)) (eq. 8).
 The state starts empty; the first frame runs ``warmup`` (100) iterations of the algorithm before its own, so a
 chunk of a sequence can start cold anywhere. Not in the paper: the iterations of a cold start after the first (which
-fills the empty set), the frame's own included, share ``warmup_rounds`` (4) draws of candidates (lines 3-7: points,
+fills the empty set), the frame's own included, share ``warmup_rounds`` (16) draws of candidates (lines 3-7: points,
 INVALID, candidates, radiosities, the cost of an iteration), each iteration of a round taking its winners out of the
 round's candidates; a round ends early at an iteration that moves no VPL (the next ones on the same candidates would
 not either). The paper's cold start is ``warmup_rounds = warmup``. Nothing moves during a cold start, so a draw's
@@ -60,7 +60,8 @@ class SMCSettings:
     radiosity_samples: int = 16  # paths with next-event estimation per VPL radiosity
     percentile: float = 95.0  # eq. 9: candidates stronger than this percentile of the VPLs count as M_strong
     warmup: int = 100  # iterations of the algorithm before the first frame of a cold start
-    warmup_rounds: int = 4  # draws of candidates that the warm-up's iterations share (not in the paper)
+    warmup_rounds: int = 16  # draws of candidates that the warm-up's iterations share (not in the paper; 16 flicker as
+    # little as the paper's 100 on the example sequences, at a sixth of its cold start: bench/README.md)
     camera_points: int = 1024  # |X|: directly visible points per frame (the paper uses every pixel)
     resampling_k: int = 8  # neighbours for the density of the intersection points (the paper does not say)
     density_k: int = 0  # k of the densities for rendering; 0: eq. 8, max(1, floor(sqrt(I) / 32))
