@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..core.compiled import kernel
-from ..materials.surface import bump_factor
+from ..materials.surface import bent, bump_factor
 
 PAIRS_PER_BATCH = 1 << 18  # a batch's shadow rays are one tracer call: about 25 ms, what a viewport change waits for
 
@@ -68,10 +68,10 @@ def _add_pairs(surface, vpls, ends, point_index, vpl_index, group, tracer, d_min
     s = surface
     rows, w, g, origin, direction, tmax = _pairs(s.position, s.geometric_normal, s.shading_normal, vpls.position,
                                                  vpls.normal, *ends, point_index, vpl_index, d_min * d_min)
-    bent = np.nonzero((s.smooth_normal != s.shading_normal).any(axis=1)[point_index[rows]])[0]
-    if len(bent):  # a normal map bent these points' normals: the diffuse lobe's light is shadowed by the bump
-        at = point_index[rows[bent]]
-        g[bent] *= bump_factor(s.shading_normal[at], s.smooth_normal[at], w[bent])
+    turned = np.nonzero(bent(s.smooth_normal, s.shading_normal)[point_index[rows]])[0]
+    if len(turned):  # a normal map bent these points' normals: the diffuse lobe's light is shadowed by the bump
+        at = point_index[rows[turned]]
+        g[turned] *= bump_factor(s.shading_normal[at], s.smooth_normal[at], w[turned])
         lit = np.nonzero(g > 0.0)[0]
         rows, g, origin, direction, tmax = rows[lit], g[lit], origin[lit], direction[lit], tmax[lit]
     if len(rows):
