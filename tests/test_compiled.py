@@ -50,3 +50,30 @@ def test_each_import_name_keeps_its_own_kernels(tmp_path):
     assert folders == ["vpl_addon.core.sampling", "vpl_gi.vpl_addon.core.sampling"]
     run(GROUP_SUM.format(name="vpl_addon"), tmp_path / "cache")
     run(GROUP_SUM.format(name="vpl_gi.vpl_addon"), tmp_path / "cache")
+
+
+HELPED = """
+from vpl_addon.core.compiled import inline, kernel
+
+
+@inline
+def half(x):
+    return 0.5 * x
+
+
+@kernel
+def quarter(x):
+    return half(half(x))
+"""
+
+
+def test_a_kernel_keeps_its_inlined_helpers_in_its_cache(tmp_path):
+    """An ``inline`` helper is compiled into the kernel that calls it: the kernel is cached with it, and a second
+    process loads that kernel and gives the same value."""
+    (tmp_path / "src").mkdir()
+    (tmp_path / "src" / "helped.py").write_text(HELPED)
+    for _ in range(2):
+        run("import helped; assert helped.quarter(3.0) == 0.75", tmp_path / "cache")
+    cached = [name for _, _, files in os.walk(tmp_path / "cache" / "numba" / "helped") for name in files]
+    assert any(name.startswith("helped.quarter") and name.endswith(".nbc") for name in cached), cached
+    assert not any(name.startswith("helped.half") for name in cached), cached

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .compiled import kernel
+from .compiled import inline, kernel
 
 
 def normalize(v: np.ndarray) -> np.ndarray:
@@ -52,6 +52,15 @@ def orthonormal_basis(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return t, s
 
 
+@inline
+def basis(n0, n1, n2):
+    """``orthonormal_basis`` of one unit normal (n0, n1, n2), in a kernel: (t0, t1, t2, b0, b1, b2)."""
+    sign = 1.0 if n2 >= 0.0 else -1.0
+    a = -1.0 / (sign + n2)
+    b = n0 * n1 * a
+    return 1.0 + sign * (n0 * n0) * a, sign * b, -sign * n0, b, sign + (n1 * n1) * a, -n1
+
+
 def to_world(local: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Rotate directions given in a frame whose z axis is n into world space."""
     t, s = orthonormal_basis(n)
@@ -73,12 +82,10 @@ def _cosine_hemisphere(u1, u2, n, dirs, cos):
         r, phi, z = np.sqrt(u1[i]), 2.0 * np.pi * u2[i], np.sqrt(max(0.0, 1.0 - u1[i]))
         x, y = r * np.cos(phi), r * np.sin(phi)
         n0, n1, n2 = n[i, 0], n[i, 1], n[i, 2]
-        sign = 1.0 if n2 >= 0.0 else -1.0  # orthonormal_basis
-        a = -1.0 / (sign + n2)
-        b = n0 * n1 * a
-        dirs[i, 0] = x * (1.0 + sign * n0 ** 2 * a) + y * b + z * n0
-        dirs[i, 1] = x * (sign * b) + y * (sign + n1 ** 2 * a) + z * n1
-        dirs[i, 2] = x * (-sign * n0) + y * -n1 + z * n2
+        t0, t1, t2, b0, b1, b2 = basis(n0, n1, n2)
+        dirs[i, 0] = x * t0 + y * b0 + z * n0
+        dirs[i, 1] = x * t1 + y * b1 + z * n1
+        dirs[i, 2] = x * t2 + y * b2 + z * n2
         cos[i] = z
 
 

@@ -44,7 +44,7 @@ import numpy as np
 from ..core.color import largest
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take_fields
-from ..core.sampling import dot, stratified_2d
+from ..core.sampling import basis, dot, stratified_2d
 
 MIN_ALPHA = 1e-3  # sharper lobes are treated as this rough (Cycles switches to a mirror below a^2 = 5e-7)
 MU_BAR = 1.0 / 7.0
@@ -252,13 +252,9 @@ def sample(n, v, a, u1, u2):
 @kernel
 def _visible_normal(n, v, a, u1, u2, wl, h):
     """Heitz's visible-normal sample at one point: writes l into ``wl`` and the microfacet normal into ``h``;
-    returns g = G2 / G1(v) (0 where l falls below n). The frame about n is ``sampling.orthonormal_basis``'s, the
-    disk point ``sampling.concentric_disk``'s."""
-    sign = 1.0 if n[2] >= 0.0 else -1.0
-    q = -1.0 / (sign + n[2])
-    p = n[0] * n[1] * q
-    t0, t1, t2 = 1.0 + sign * n[0] * n[0] * q, sign * p, -sign * n[0]
-    s0, s1, s2 = p, sign + n[1] * n[1] * q, -n[1]
+    returns g = G2 / G1(v) (0 where l falls below n). The frame about n is ``sampling.basis``, the disk point
+    ``sampling.concentric_disk``'s."""
+    t0, t1, t2, s0, s1, s2 = basis(n[0], n[1], n[2])
     x0 = a * (v[0] * t0 + v[1] * t1 + v[2] * t2)  # the view in the frame, stretched
     x1 = a * (v[0] * s0 + v[1] * s1 + v[2] * s2)
     cos_v = v[0] * n[0] + v[1] * n[1] + v[2] * n[2]
