@@ -116,8 +116,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Warm-up Draws", default=_SMC.warmup_rounds, min=1, soft_max=100,
         description="Sequential Monte Carlo: draws of candidates the warm-up iterations share. 16 starts in "
                     "about 4 s on a Cornell box and flickers as little as the paper's warm-up (as many draws as "
-                    "iterations), which takes about 6 times as long; 4 starts in 1.5 s and flickers 5-8 % more, but its "
-                    "single frames are closer to Cycles")
+                    "iterations), which takes about 6 times as long; 4 starts in 1.5 s and flickers 5-8 % more, but "
+                    "its single frames are closer to Cycles")
     path_reuse: bpy.props.BoolProperty(
         name="Path Reuse", default=_PLACE.path_reuse,
         description="In animations, keep light paths between frames and re-trace only those that moving objects "
