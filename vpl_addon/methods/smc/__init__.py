@@ -66,10 +66,11 @@ class SMCSettings:
     resampling_k: int = 8  # neighbours for the density of the intersection points (the paper does not say)
     density_k: int = 0  # k of the densities for rendering; 0: eq. 8, max(1, floor(sqrt(I) / 32))
     # The area a VPL stands for in the gather, 1 / (I p(y)). "knn": eq. 7 with the k above, as in the paper.
-    # "voronoi" (not in the paper): each hit of this frame's candidate rays stands for the area pi r^2 / k of its kNN
-    # density among the (unselected, so nearly Poisson) hits and gives it to its nearest VPL, a running mean over
-    # ``area_frames`` frames. The replacement heuristic keeps VPLs whose neighbours are far, so eq. 7 overestimates
-    # their area: the Cornell box comes out a third too bright with "knn" (bench/README.md)
+    # "voronoi" (not in the paper): each hit of a round's candidate rays stands for the area pi r^2 / k of its kNN
+    # density among the (unselected, so nearly Poisson) hits and gives it to its nearest VPL of the set as it is now,
+    # averaged over the last ``area_frames`` rounds (their hits are kept: 16 bytes a hit, 4 KB a VPL). The
+    # replacement heuristic keeps VPLs whose neighbours are far, so eq. 7 overestimates their area: the Cornell box
+    # comes out a third too bright with "knn" (bench/README.md)
     area: str = "voronoi"
     area_frames: int = 16
     # k of the hits' kNN areas: k = 1 is unbiased for uniformly random points (E[pi r_1^2] = 1 / density) and the
@@ -99,8 +100,9 @@ class SMCState:
         self.mailbox = (np.zeros((0, 3)), np.zeros((0, 3)))  # associated point and its normal
         self.strength = np.zeros(0)  # scalar intensity lum(L) / p used for ranking
         self.density = np.zeros(0)  # p(y) for rendering (eq. 7 with the k of eq. 8)
-        self.area = np.zeros(0)  # "voronoi" area per VPL (running mean) and the frames it averages
-        self.area_count = np.zeros(0, np.int64)
+        self.area = np.zeros(0)  # "voronoi" area per VPL, from the hits below
+        self.hits: list[tuple[np.ndarray, np.ndarray]] = []  # each of the last ``area_frames`` rounds' hits:
+        # positions and the area each stands for (float32)
         self.next_seed = 0
         self.iterations = 0
         self.stale_radiosity = False  # lights, geometry or shading changed since the radiosities were estimated
@@ -112,7 +114,7 @@ class SMCState:
         self.surface = self.surface.take(rows)
         self.radiosity, self.seed, self.strength = self.radiosity[rows], self.seed[rows], self.strength[rows]
         self.mailbox = (self.mailbox[0][rows], self.mailbox[1][rows])
-        self.area, self.area_count = self.area[rows], self.area_count[rows]
+        self.area = self.area[rows]
 
 
 def _inside_boxes(points, boxes, margin):
@@ -194,18 +196,34 @@ def iterate(state: SMCState, context, settings, motion=None, steps: int = 1) -> 
         if moved is None:  # nothing changed: neither would the next steps on the same candidates
             break
         valid = moved
-    if s.area == "voronoi" and len(state) and len(covered[0]):
-        _voronoi(state, s, covered, context.tracer.threads)
+    if s.area == "voronoi" and len(covered[0]):
+        _remember_hits(state, s, covered, motion, extent)
     state.iterations += steps
 
 
-def _voronoi(state: SMCState, s: SMCSettings, covered, workers: int) -> None:
-    """The "voronoi" areas: each hit gives the area it stands for to its nearest VPL, a running mean over
-    ``area_frames`` rounds."""
-    _, nearest = cKDTree(state.surface.position).query(covered[0], workers=workers)
-    share = np.bincount(nearest, weights=covered[1], minlength=len(state))
-    state.area_count += 1
-    state.area += (share - state.area) / np.minimum(state.area_count, s.area_frames)
+def _remember_hits(state: SMCState, s: SMCSettings, covered, motion, extent: float) -> None:
+    """Keeps this round's hits for the "voronoi" areas, with those of the ``area_frames - 1`` rounds before; where
+    objects moved, this round's hits stand in for the earlier rounds' (which lie where the surfaces were)."""
+    position, area = covered[0].astype(np.float32), covered[1].astype(np.float32)
+    if motion is not None and motion.boxes and state.hits:
+        margin = 1e-4 * max(extent, 1e-12)
+        inside = _inside_boxes(position, motion.boxes, margin)
+        kept = [(p, a, ~_inside_boxes(p, motion.boxes, margin)) for p, a in state.hits]
+        state.hits = [(np.concatenate([p[out], position[inside]]), np.concatenate([a[out], area[inside]]))
+                      for p, a, out in kept]
+    state.hits = (state.hits + [(position, area)])[-s.area_frames:]
+
+
+def _voronoi_areas(state: SMCState, workers: int) -> np.ndarray:
+    """The "voronoi" areas: each remembered hit gives the area it stands for to its nearest VPL of the set as it is
+    now, averaged over the rounds. (A running mean of each round's shares would keep the cells of the VPLs as they
+    were: where VPLs joined, their neighbours' old, larger cells, and the replacements put VPLs where light is
+    strong, so the sum came out 10 % too bright on cornell_area: bench/README.md.)"""
+    if not len(state) or not state.hits:
+        return np.zeros(len(state))
+    _, nearest = cKDTree(state.surface.position).query(np.concatenate([p for p, _ in state.hits]), workers=workers)
+    share = np.bincount(nearest, weights=np.concatenate([a for _, a in state.hits]), minlength=len(state))
+    return share / len(state.hits)
 
 
 def _radiosity(context, s: SMCSettings, surface: Surface, seeds, stream) -> np.ndarray:
@@ -305,7 +323,6 @@ def _admit(state: SMCState, context, s: SMCSettings, pool: _Pool, best: np.ndarr
                      np.concatenate([state.mailbox[1], pool.mailbox[1][best]]))
     state.strength = np.concatenate([state.strength, strength[best]])
     state.area = np.concatenate([state.area, np.zeros(len(best))])
-    state.area_count = np.concatenate([state.area_count, np.zeros(len(best), np.int64)])
 
 
 def _rendering_density(state: SMCState, s: SMCSettings, budget: int, floor: float, extent: float) -> None:
@@ -334,6 +351,8 @@ def advance(state: SMCState, context, settings, motion) -> tuple[VirtualLights, 
     for steps in warmup_rounds(settings.smc) if state.iterations == 0 else [1]:
         iterate(state, context, settings, motion, steps)
     replaced = len(set(state.seed.tolist()) - before)
+    if settings.smc.area == "voronoi":
+        state.area = _voronoi_areas(state, context.tracer.threads)
     lights = as_virtual_lights(state, settings.vpls, settings.smc.area)
     return lights, {"vpls": len(lights), "replaced": replaced if moved else len(lights), "light_paths": 0,
                     "iterations": state.iterations, "sampling_rays": context.tracer.rays_traced - rays0}
