@@ -363,8 +363,8 @@ class Options:
     budgets: dict[str, list[int]]
     out_dir: str
     percentage: int | None = None
-    samples: int = 4
-    light_samples: int = 4
+    samples: int | None = None  # engine camera and light samples; None: the scene's (the user's defaults)
+    light_samples: int | None = None
     time_cap: float = 40.0
     reference_dir: str = os.path.join(ROOT, "tests", "references")
     reference_samples: int = 4096
@@ -373,6 +373,11 @@ class Options:
     quick: bool = False
     scaling: bool = False
     seeds: int = 1  # runs of each budget, with seeds 0..seeds-1
+
+    def sampled(self, settings: RenderSettings) -> RenderSettings:
+        """``settings`` with the camera and light samples asked for (the scene's where not)."""
+        given = {"samples": self.samples, "light_samples": self.light_samples}
+        return dataclasses.replace(settings, **{k: v for k, v in given.items() if v is not None})
 
 
 def plan(options: Options) -> dict[str, list[int]]:
@@ -458,7 +463,7 @@ class Bench:
                 raise BenchError(f"{blend}: renders at {built.camera.width}x{built.camera.height} but its reference "
                                  f"is {w}x{h}")
             base = scene.vpl_gi.render_settings(ENGINE_PASSES)
-            base = dataclasses.replace(base, samples=self.o.samples, light_samples=self.o.light_samples)
+            base = self.o.sampled(base)
             for method in engine_methods:
                 knob = knob_of(method)
                 denoised = method.endswith(DENOISED)  # judged on the picture only: the light passes stay estimates
@@ -610,8 +615,7 @@ def scaling(bench: Bench, blend: str) -> list[str]:
         finally:
             scene.render.resolution_x, scene.render.resolution_y = size
 
-    base = dataclasses.replace(scene.vpl_gi.render_settings(ENGINE_PASSES), method=method, samples=o.samples,
-                               light_samples=o.light_samples)
+    base = o.sampled(dataclasses.replace(scene.vpl_gi.render_settings(ENGINE_PASSES), method=method))
     small, budget = (25, 64) if o.quick else (50, 1024)
     built = extracted(max(1, own * small // 100))
     levels = levels_for(len(built.triangles), largest=2_000_000)[:2 if o.quick else None]
@@ -625,7 +629,7 @@ def scaling(bench: Bench, blend: str) -> list[str]:
         sweeps["lights"] = [(n, lambda n=n: (split_light(built, n), budget)) for n in
                             ((1, 10) if o.quick else (1, 10, 100, 1000))]
     raw = {}  # rays per second of raw embreex by triangle count
-    rows, lines = [], [f"scaling ({label}, {method}, {o.samples} spp, {o.light_samples} light samples; "
+    rows, lines = [], [f"scaling ({label}, {method}, {base.samples} spp, {base.light_samples} light samples; "
                        f"{knob.name}={budget} and {small} % resolution unless varied):",
                        f"  {'sweep':10s} {'count':>10s} {'wall s':>8s} {'M rays':>8s} {'M rays/s':>9s} {'% raw':>6s} "
                        f"{'peak MB':>8s}"]

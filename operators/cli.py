@@ -322,8 +322,8 @@ def cmd_bench(args) -> int:
     quick = args.quick
     options = Options(scenes=[os.path.abspath(s) for s in args.scenes], methods=methods, budgets=budgets,
                       out_dir=out_dir, percentage=args.percentage or (25 if quick else None),
-                      samples=args.samples or (2 if quick else 4),
-                      light_samples=args.light_samples if args.light_samples is not None else (2 if quick else 4),
+                      samples=args.samples or (2 if quick else None),
+                      light_samples=args.light_samples if args.light_samples is not None else (2 if quick else None),
                       time_cap=args.time_cap if args.time_cap is not None else (10.0 if quick else 40.0),
                       reference_samples=args.reference_samples, cache_dir=args.cache_dir,
                       gather_rays=args.gather_rays or (200_000 if quick else 2_000_000), quick=quick,
@@ -457,8 +457,8 @@ def parser() -> argparse.ArgumentParser:
                    help="budgets of one method (VPL count; samples per pixel for cycles), or of every engine "
                         "method without METHOD=; repeatable")
     b.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's; --quick: 25)")
-    b.add_argument("--samples", type=int, help="engine camera samples per pixel (default 4; --quick: 2)")
-    b.add_argument("--light-samples", type=int, help="engine light samples (default 4; --quick: 2)")
+    b.add_argument("--samples", type=int, help="engine camera samples per pixel (default: the scene's; --quick: 2)")
+    b.add_argument("--light-samples", type=int, help="engine light samples (default: the scene's; --quick: 2)")
     b.add_argument("--time-cap", type=float,
                    help="skip a method's larger budgets once its next run would take longer than this many seconds "
                         "(default 40; --quick: 10)")
