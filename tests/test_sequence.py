@@ -11,7 +11,7 @@ from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.vbnl import VBNLSettings
 from vpl_addon.render import RenderSettings, render
 from vpl_addon.sequence.motion import Motion, Snapshot
-from vpl_addon.sequence.state import SequenceState, frame_seed
+from vpl_addon.sequence.state import STATE_FORMAT, SequenceState, frame_seed
 
 WALL = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
 
@@ -108,6 +108,17 @@ def test_a_state_from_another_layout_or_damaged_is_refused_with_a_value_error(da
     told by a ValueError (and starts cold) rather than crashing on an ImportError."""
     with pytest.raises(ValueError, match="another version of VPL GI, or damaged"):
         SequenceState.loads(data)
+
+
+def test_a_state_of_an_earlier_format_is_refused_with_a_value_error():
+    """A state whose method kept other fields (smc before it kept its hits) unpickles, but is refused before a
+    frame reaches for a field it lacks."""
+    old = SequenceState("smc")
+    del old.format  # as saved before the format was recorded
+    with pytest.raises(ValueError, match=f"format 1, where this engine reads {STATE_FORMAT}"):
+        SequenceState.loads(old.dumps())
+    old.format = STATE_FORMAT
+    assert SequenceState.loads(old.dumps()).method == "smc"
 
 
 @pytest.mark.parametrize("method", list(METHODS))

@@ -29,6 +29,12 @@ from ..materials.cutouts import cutouts
 from .motion import Motion, Snapshot
 
 
+# The layout of the pickled state and of every method's state in it: raised whenever one of them gains, loses or
+# changes a field, so a state saved by an earlier engine is refused (the bake starts cold) rather than failing on a
+# missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas.
+STATE_FORMAT = 2
+
+
 def frame_seed(seed: int, frame: int) -> int:
     """The seed of one frame: a hash of (seed, frame), so frames are independent and reproducible."""
     return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, (int(frame) + (1 << 31)) & 0xFFFFFFFF])
@@ -40,6 +46,7 @@ class SequenceState:
 
     def __init__(self, method: str):
         self.method = method
+        self.format = STATE_FORMAT
         self.frame: int | None = None  # the last frame begun
         self.snapshot: Snapshot | None = None
         self.motion: Motion | None = None
@@ -120,4 +127,7 @@ class SequenceState:
                              f"version of VPL GI, or damaged") from None
         if not isinstance(state, SequenceState):
             raise ValueError("not a sequence state")
+        if getattr(state, "format", None) != STATE_FORMAT:
+            raise ValueError(f"a sequence state of format {getattr(state, 'format', 1)}, where this engine reads "
+                             f"{STATE_FORMAT}: written by another version of VPL GI, or damaged")
         return state

@@ -100,7 +100,7 @@ class SMCState:
         self.mailbox = (np.zeros((0, 3)), np.zeros((0, 3)))  # associated point and its normal
         self.strength = np.zeros(0)  # scalar intensity lum(L) / p used for ranking
         self.density = np.zeros(0)  # p(y) for rendering (eq. 7 with the k of eq. 8)
-        self.area = np.zeros(0)  # "voronoi" area per VPL, from the hits below
+        self.area = np.zeros(0)  # "voronoi" area per VPL, from the hits below when a frame's lights are made
         self.hits: list[tuple[np.ndarray, np.ndarray]] = []  # each of the last ``area_frames`` rounds' hits:
         # positions and the area each stands for (float32)
         self.next_seed = 0
@@ -114,7 +114,6 @@ class SMCState:
         self.surface = self.surface.take(rows)
         self.radiosity, self.seed, self.strength = self.radiosity[rows], self.seed[rows], self.strength[rows]
         self.mailbox = (self.mailbox[0][rows], self.mailbox[1][rows])
-        self.area = self.area[rows]
 
 
 def _inside_boxes(points, boxes, margin):
@@ -322,7 +321,6 @@ def _admit(state: SMCState, context, s: SMCSettings, pool: _Pool, best: np.ndarr
     state.mailbox = (np.concatenate([state.mailbox[0], pool.mailbox[0][best]]),
                      np.concatenate([state.mailbox[1], pool.mailbox[1][best]]))
     state.strength = np.concatenate([state.strength, strength[best]])
-    state.area = np.concatenate([state.area, np.zeros(len(best))])
 
 
 def _rendering_density(state: SMCState, s: SMCSettings, budget: int, floor: float, extent: float) -> None:
