@@ -4,6 +4,7 @@ error that the VPL indirect light carries is measured, not guessed; then that er
 shrinks the reference's noise about k times and leaves bias) and, per 16 x 16 block, its sign and size.
 
     .venv/bin/python bench/indirect_floor.py [cornell_area] [--pairs 16,64,256] [--photons N,...] [--vpls N,...]
+        [--no-filter]
 
 The indirect light of a pass set is Diffuse Indirect x Diffuse Color (+ Glossy Indirect x Glossy Color where the
 reference has them), Cycles' composition of Combined.
@@ -52,6 +53,7 @@ def main(argv=None):
     p.add_argument("--photons", type=_ints, default=[0], help="vbnl's photon paths (0: the scene's)")
     p.add_argument("--vpls", type=_ints, default=[0], help="the VPL budget (0: the scene's)")
     p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--no-filter", action="store_true", help="without the geometry-aware filter of the gather")
     args = p.parse_args(argv)
     blend = blend_path(args.scene)
     register_extension()
@@ -74,7 +76,9 @@ def main(argv=None):
         vbnl = dataclasses.replace(vbnl, photons=photons or vbnl.photons,
                                    sampling=dataclasses.replace(vbnl.sampling, samples=pairs))
         placement = dataclasses.replace(placement, vpls=vpls or placement.vpls, vbnl=vbnl)
-        wall, result, _ = engine_run(scene, dataclasses.replace(base, seed=args.seed, placement=placement))
+        gather = dataclasses.replace(base.gather, filter=base.gather.filter and not args.no_filter)
+        wall, result, _ = engine_run(scene, dataclasses.replace(base, seed=args.seed, placement=placement,
+                                                                gather=gather))
         ours = result.passes[P.COMBINED][..., :3]
         our_indirect = indirect(result.passes)
         their_indirect_ours = ref[..., :3] - ref_indirect + our_indirect  # the reference, our indirect light

@@ -379,7 +379,8 @@ def _render_flags(r) -> None:
     r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
     r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
     r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
-    r.add_argument("--no-filter", action="store_true", help="skip the geometry-aware filter of the indirect light")
+    r.add_argument("--no-filter", action="store_true",
+                   help="skip the geometry-aware filter of the indirect light (a denoised render skips it anyway)")
     r.add_argument("--denoise", action="store_true",
                    help="denoise Combined with OpenImageDenoise (F12's default; off here, so that Combined is the "
                         "estimate the benchmark judges unless asked)")

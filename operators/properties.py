@@ -81,7 +81,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
         description="Pixels of each tile see disjoint subsets of the VPLs (1 = every pixel sees every VPL)")
     filter: bpy.props.BoolProperty(
         name="Filter", default=_GATHER.filter,
-        description="Geometry-aware filter that removes the interleaving pattern")
+        description="Geometry-aware filter that removes the interleaving pattern. Not used when the render is "
+                    "denoised: OpenImageDenoise does better on the unfiltered light")
     denoise: bpy.props.BoolProperty(
         name="Denoise", default=True,
         description="Denoise the finished image (Combined) with OpenImageDenoise, guided by the surfaces' albedo and "

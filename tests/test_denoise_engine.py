@@ -56,3 +56,23 @@ def test_without_oidn_one_warning_and_the_picture_as_rendered(monkeypatch):
     result = render(_lit(), SETTINGS)
     assert len(result.warnings) == 1 and "OpenImageDenoise" in result.warnings[0], result.warnings
     np.testing.assert_array_equal(result.passes[P.COMBINED], as_rendered.passes[P.COMBINED])
+
+
+def test_a_denoised_render_leaves_the_indirect_light_unfiltered_for_oidn(monkeypatch):
+    """Before OIDN the gather's filter costs more than it removes (bench/README.md, "Where our floor is"): a denoised
+    render's indirect light is the unfiltered one; where OIDN cannot load, the picture stays as rendered, so it is
+    filtered as without denoising."""
+    from test_sequence import lamp_scene
+    from vpl_addon.gather.summing import GatherSettings
+    from vpl_addon.methods import MethodSettings
+    settings = RenderSettings(method="ir", samples=2, light_samples=1, seed=3, denoise=True,
+                              passes=(P.COMBINED, P.DIFFUSE_INDIRECT), placement=MethodSettings(vpls=256),
+                              gather=GatherSettings(interleave=2))
+    denoised = render(lamp_scene(), settings).passes[P.DIFFUSE_INDIRECT]
+    unfiltered = render(lamp_scene(), replace(settings, denoise=False, gather=GatherSettings(interleave=2,
+                                                                                             filter=False)))
+    filtered = render(lamp_scene(), replace(settings, denoise=False)).passes[P.DIFFUSE_INDIRECT]
+    assert denoised.max() > 0 and not np.array_equal(filtered, unfiltered.passes[P.DIFFUSE_INDIRECT])
+    np.testing.assert_array_equal(denoised, unfiltered.passes[P.DIFFUSE_INDIRECT])
+    monkeypatch.setitem(sys.modules, "pyoidn", None)
+    np.testing.assert_array_equal(render(lamp_scene(), settings).passes[P.DIFFUSE_INDIRECT], filtered)

@@ -42,6 +42,15 @@ def _oidn():
     return pyoidn
 
 
+def available() -> bool:
+    """Whether OIDN loads on this system (``denoise`` would run)."""
+    try:
+        _oidn()
+    except DenoiserMissing:
+        return False
+    return True
+
+
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None = None,
             progress: Callable[[float], bool] | None = None) -> np.ndarray:
     """(H,W,3) float32 denoised HDR ``color`` (linear, non-negative) guided by ``albedo`` and ``normal`` (H,W,3),
