@@ -27,6 +27,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from ..vpl_addon.core.color import srgb_to_linear
 from ..vpl_addon.core.scene import Materials, TextureMap
 from ..vpl_addon.materials.microfacet import constant_reflectance_tint
 
@@ -36,13 +37,16 @@ UNRENDERED_LAYERS = ("Coat Weight", "Sheen Weight", "Subsurface Weight", "Anisot
                      "Diffuse Roughness")
 
 
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+def stored_as_srgb(image) -> bool:
+    """Whether Cycles keeps ``image`` sRGB-encoded and interpolates it so (an 8-bit image in the sRGB colour space:
+    it converts a lookup's result to linear, not the texels)."""
+    return not image.is_float and image.colorspace_settings.name == "sRGB"
 
 
-def image_pixels(image, alpha: bool = False) -> np.ndarray | None:
+def image_pixels(image, alpha: bool = False, encoded: bool = False) -> np.ndarray | None:
     """(h,w,3) float32 linear RGB (RGBA with ``alpha``) of a Blender image, row 0 at the bottom, NaN and infinities
-    0; None when it has no pixels (a missing file, a zero-size image)."""
+    0; None when it has no pixels (a missing file, a zero-size image). With ``encoded``, an image Cycles
+    interpolates sRGB-encoded (``stored_as_srgb``) keeps its encoded values."""
     w, h = image.size
     if not image.has_data and w * h == 0:
         try:
@@ -56,7 +60,7 @@ def image_pixels(image, alpha: bool = False) -> np.ndarray | None:
     image.pixels.foreach_get(px)
     px = px.reshape(h, w, image.channels)
     rgb = px[..., :3] if image.channels >= 3 else np.repeat(px[..., :1], 3, axis=2)
-    if not image.is_float and image.colorspace_settings.name == "sRGB":
+    if stored_as_srgb(image) and not encoded:
         rgb = srgb_to_linear(rgb)
     if alpha:
         a = px[..., 3:4] if image.channels in (2, 4) else np.ones((h, w, 1), np.float32)
@@ -196,6 +200,7 @@ class MaterialTable:
         self.index: dict[str, int] = {}
         self.textures: list[np.ndarray] = []
         self.texture_index: dict[tuple[str, bool], int] = {}
+        self.encoded: list[bool] = []  # per texture: its values sRGB-encoded (``TextureMap.srgb``)
         self.uv_map: dict[int, str | None] = {}
         self.images: dict[int, list[str]] = {}  # material id -> names of the images it reads
         self.color_attribute: dict[int, str] = {}  # material id -> the colour attribute it reads ('' the default)
@@ -237,13 +242,14 @@ class MaterialTable:
     def _image(self, image, material, alpha: bool) -> int | None:
         key = (image.name_full, alpha)
         if key not in self.texture_index:
-            pixels = image_pixels(image, alpha)
+            pixels = image_pixels(image, alpha, encoded=True)
             if pixels is None:
                 self.warnings.append(f"material {material.name!r}: image {image.name!r} could not be loaded "
                                      f"({image.filepath or 'no file'}); using the input's value instead")
                 self.texture_index[key] = -1
             else:
                 self.textures.append(pixels)
+                self.encoded.append(stored_as_srgb(image))
                 self.texture_index[key] = len(self.textures) - 1
         index = self.texture_index[key]
         return None if index < 0 else index
@@ -337,7 +343,7 @@ class MaterialTable:
             self._attributes.append(attribute)
         return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), tuple(uv),
                           extension, node.interpolation == "Closest", float(strength), float(cutoff),
-                          vertex=attribute is not None)
+                          vertex=attribute is not None, srgb=self.encoded[index])
 
     def _read(self, material) -> dict:
         row = {"name": material.name}

@@ -1,4 +1,4 @@
-"""Colour: luminance of linear RGB in Blender's scene space (Rec. 709 primaries)."""
+"""Colour: luminance of linear RGB in Blender's scene space (Rec. 709 primaries), and the sRGB transfer function."""
 from __future__ import annotations
 
 import numpy as np
@@ -15,3 +15,9 @@ def largest(rgb: np.ndarray) -> np.ndarray:
     """(N,) the largest of the three channels of each row of ``rgb`` (N,3): ``rgb.max(axis=1)``, NaN included, in
     one pass per channel (numpy reduces a last axis of three about 20 times slower)."""
     return np.maximum(np.maximum(rgb[:, 0], rgb[:, 1]), rgb[:, 2])
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    """Linear values of sRGB-encoded ones (the IEC 61966-2-1 transfer function, as Blender's colour management)."""
+    c = np.asarray(c)
+    return np.where(c <= 0.04045, c / 12.92, ((np.maximum(c, 0.04045) + 0.055) / 1.055) ** 2.4).astype(c.dtype)

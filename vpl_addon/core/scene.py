@@ -47,6 +47,7 @@ class TextureMap:
     strength: float = 1.0  # Normal Map strength
     cutoff: float = -1.0  # alpha clip threshold on the value; negative: none
     vertex: bool = False  # times the interpolated colour attribute (``Scene.colors``)
+    srgb: bool = False  # the image's RGB is sRGB-encoded: interpolated so, then made linear (Cycles' 8-bit images)
 
 
 @dataclass
@@ -187,7 +188,8 @@ class Scene:
     camera: Camera
     world: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))  # background radiance RGB
     environment: Environment | None = None  # the world as a map (then ``world`` is not used)
-    textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3|4) float32 linear, row 0 = bottom (v = 0)
+    textures: list[np.ndarray] = field(default_factory=list)  # (h,w,3|4) float32, row 0 = bottom (v = 0); linear
+    # values, but sRGB-encoded where the maps reading them say so (``TextureMap.srgb``)
     tangents: np.ndarray | None = None  # (T,3,4) float32 per-corner tangent and bitangent sign, for normal maps
     colors: np.ndarray | None = None  # (T,3,3) float32 per-corner linear RGB of the colour attribute each
     # triangle's material reads (Color Attribute node); None when no material reads one

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..core.color import luminance
+from ..core.color import luminance, srgb_to_linear
 from ..core.sampling import interpolated
 from ..core.scene import TextureMap
 
@@ -62,6 +62,8 @@ def lookup(tmap: TextureMap, textures: list[np.ndarray], uv: np.ndarray, scalar:
     if tmap.image >= 0:
         texel = sample_bilinear(textures[tmap.image], transformed_uv(tmap, uv), tmap.extension, tmap.closest)
         texel = texel.astype(np.float64)
+        if tmap.srgb:  # as Cycles reads an 8-bit sRGB image: the texels blended as stored, the blend made linear
+            texel[:, :3] = srgb_to_linear(texel[:, :3])
     else:
         texel = np.ones((len(uv), 4))
     if tmap.vertex:

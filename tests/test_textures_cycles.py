@@ -1,0 +1,60 @@
+"""An 8-bit sRGB image texture magnified on a plane, seen by an orthographic camera: the engine's ``Diffuse Color``
+across the blend between two texels against Cycles'. Cycles keeps such an image sRGB-encoded and makes the result
+of its bilinear lookup linear, so the blend from black to white is the sRGB curve, not a straight line (at its
+middle 0.21, not 0.5): the checkerboard's edges of cornell_textured were where our picture differed most from
+Cycles'."""
+
+import numpy as np
+import pytest
+
+from conftest import add_mesh, add_sun, camera_and_black_world, run_cli
+
+pytestmark = pytest.mark.blender
+
+
+def ramp_blend(tmp_path, colorspace):
+    """A 2 x 1 image (black, white) in ``colorspace`` stretched over a plane the camera sees whole: 64 pixels
+    across, the blend between the two texel centres over the middle 32."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 64, 4
+    plane = add_mesh(bpy, "Plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)])
+    layer = plane.data.uv_layers.new(name="UVMap")
+    for loop, uv in zip(plane.data.loops, ((0, 0), (1, 0), (1, 1), (0, 1))):
+        layer.data[loop.index].uv = uv
+    image = bpy.data.images.new("Ramp", 2, 1, alpha=False)
+    image.colorspace_settings.name = colorspace
+    image.pixels.foreach_set(np.array([0, 0, 0, 1, 1, 1, 1, 1], np.float32))
+    image.pack()
+    mat = bpy.data.materials.new("Ramp")
+    if mat.node_tree is None:  # Blender < 5.0
+        mat.use_nodes = True
+    nodes = mat.node_tree.nodes
+    tex = nodes.new("ShaderNodeTexImage")
+    tex.image, tex.interpolation, tex.extension = image, "Linear", "EXTEND"
+    mat.node_tree.links.new(tex.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+    plane.data.materials.append(mat)
+    add_sun(bpy, scene, (0.0, 0.0, 0.0), energy=1.0)
+    camera_and_black_world(bpy, scene, (0.0, 0.0, 5.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
+    path = tmp_path / f"ramp_{colorspace.replace(' ', '_')}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+@pytest.mark.parametrize("colorspace", ["sRGB", "Non-Color"])
+def test_an_8_bit_image_blends_its_texels_as_cycles_does(ext, tmp_path, colorspace):
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    blend = ramp_blend(tmp_path, colorspace)
+    ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles.exr"
+    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "16", "--method", "none")
+    assert code == 0, stderr
+    code, _, stderr = run_cli("reference", blend, "-o", cycles, "--samples", "16", "--cache-dir", tmp_path / "cache")
+    assert code == 0, stderr
+    row = [read_passes(str(path))[0]["Diffuse Color"][2, :, 0] for path in (ours, cycles)]
+    middle = slice(16, 48)  # between the texel centres: the blend
+    print(colorspace, np.round(row[0][middle][::4], 3), np.round(row[1][middle][::4], 3))
+    assert np.abs(row[0][middle] - row[1][middle]).max() < 0.02
+    # the blend at the middle: the sRGB curve's 0.21 (Cycles'), a straight line's 0.5 for data
+    assert row[1][31:33].mean() == pytest.approx(0.21 if colorspace == "sRGB" else 0.5, abs=0.05)
