@@ -18,12 +18,13 @@ GUIDES = REFERENCES / "denoising_guides.json"  # Cycles' Denoising Albedo / Norm
 GUIDE_PASSES = ("Denoising Albedo", "Denoising Normal")
 
 
-def _render(bpy, path, engine_name, denoise, samples, size=64, method="vbnl", light_samples=1, compositor=False):
-    """The PBR Cornell box (textures, metal) with the Denoising Data passes: its view layer's passes. ``compositor``
-    adds a Denoise node fed as for Cycles (``_denoise_node``)."""
+def _render(bpy, path, engine_name, denoise, samples, size=64, method="vbnl", light_samples=1, compositor=False,
+            blend=SCENE):
+    """The PBR Cornell box (textures, metal; or ``blend``) with the Denoising Data passes: its view layer's passes.
+    ``compositor`` adds a Denoise node fed as for Cycles (``_denoise_node``)."""
     from vpl_gi.operators.output import render_to
     from vpl_gi.vpl_addon.core.exr import LAYER, read_passes
-    bpy.ops.wm.open_mainfile(filepath=str(SCENE))
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
     scene.render.resolution_x = scene.render.resolution_y = size
     scene.render.resolution_percentage = 100
@@ -80,6 +81,46 @@ def test_denoising_albedo_and_normal_are_cycles(ext, tmp_path):
     assert np.abs(mine - theirs).max() < 0.01, (mine, theirs)
     assert np.abs(mine).max() > 0.3  # the walls' normals do not cancel out: the space is the camera's
     assert not [m for level, m in engine.LAST_REPORTS if level == "WARNING"]
+
+
+def test_the_denoising_albedo_of_an_emitter_and_of_the_world_is_cycles(ext, tmp_path):
+    """Cycles adds what a surface emits to its Denoising Albedo, and writes the world's colour where the camera sees
+    it (not on a transparent film), so that OIDN keeps the edges of a glowing panel: a panel of base colour (1, 0.6,
+    0.2) emitting five times that gives (6, 3.6, 1.2). With the reflected colour alone, our denoised picture blurred
+    such edges (cornell_textured's panel: 1.75 where Cycles has 2.08 beside it)."""
+    import bpy
+    from conftest import add_mesh, camera_and_black_world
+    from vpl_gi.operators import engine
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    wall = surface_material(bpy, "Wall", (0.5, 0.5, 0.5), 0.0)
+    panel = surface_material(bpy, "Panel", (1.0, 0.6, 0.2), 5.0)
+    add_mesh(bpy, "Wall", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], material=wall)
+    add_mesh(bpy, "Panel", [(-0.4, -0.4, 0.01), (0.4, -0.4, 0.01), (0.4, 0.4, 0.01), (-0.4, 0.4, 0.01)],
+             [(0, 1, 2, 3)], material=panel)
+    camera_and_black_world(bpy, scene, (0.0, 0.0, 4.0))  # a 39.6-degree view: the world shows round the wall
+    scene.world.node_tree.nodes["Background"].inputs["Strength"].default_value = 1.0
+    scene.world.node_tree.nodes["Background"].inputs["Color"].default_value = (0.2, 0.3, 0.4, 1.0)
+    blend = tmp_path / "panel.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    albedo = [_render(bpy, tmp_path / f"{name}.exr", name, False, 16, 32, "none", blend=blend)["Denoising Albedo"]
+              for name in ("CYCLES", engine.VPLGIRenderEngine.bl_idname)]
+    for where in ((16, 16), (1, 1), (16, 8)):  # the panel, the world, the wall
+        np.testing.assert_allclose(albedo[1][where][:3], albedo[0][where][:3], rtol=0.02, atol=0.005)
+    np.testing.assert_allclose(albedo[0][16, 16][:3], (6.0, 3.6, 1.2), rtol=0.01)
+
+
+def surface_material(bpy, name, color, strength):
+    """A Principled BSDF of base ``color``, without specular, emitting ``strength`` times that colour."""
+    mat = bpy.data.materials.new(name)
+    if mat.node_tree is None:  # Blender < 5.0
+        mat.use_nodes = True
+    bsdf = mat.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
+    bsdf.inputs["Emission Color"].default_value = (*color, 1.0)
+    bsdf.inputs["Emission Strength"].default_value = strength
+    bsdf.inputs["Specular IOR Level"].default_value = 0.0
+    return mat
 
 
 def test_compositor_denoise_node_gives_the_denoised_render(ext, tmp_path):

@@ -338,8 +338,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         images[name][pixels] = image
             if P.EMIT in want:
                 images[P.EMIT][pixels] = gbuf.splat(surf.emission)
-            if P.DENOISING_ALBEDO in want:
-                images[P.DENOISING_ALBEDO][pixels] = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels]
+            if P.DENOISING_ALBEDO in want:  # Cycles': the colour reflected, plus what is emitted and the world seen
+                albedo = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels] + gbuf.splat(surf.emission)
+                images[P.DENOISING_ALBEDO][pixels] = albedo + (background if need_background and
+                                                               not settings.film_transparent else 0.0)
             if data_wanted:
                 for name, image in data_passes(gbuf, scene, data_wanted, tracer, rng, settings.mist,
                                                settings.ao_distance).items():

@@ -1,8 +1,9 @@
 """The finished picture denoised with Intel Open Image Denoise (OIDN, through the ``pyoidn`` wheel), as Cycles'
 render denoiser does it: the "RT" filter on the HDR colour, guided by the first surfaces' albedo and normal.
 
-The guides are Cycles' ``Denoising Albedo`` (diffuse plus glossy colour) and ``Denoising Normal`` (the shading normal
-in camera space, x right, y up, z forward), per pixel the mean over its samples. They are nearly noise-free here (no
+The guides are Cycles' ``Denoising Albedo`` (diffuse plus glossy colour plus emission, so that an emitter's edges
+are kept) and ``Denoising Normal`` (the shading normal in camera space, x right, y up, z forward), per pixel the mean
+over its samples. They are nearly noise-free here (no
 path is traced for them), but texture detail and anti-aliased edges make them differ from sample to sample, so they
 are prefiltered by OIDN first, as its documentation recommends for guides that are not clean ("cleanAux").
 

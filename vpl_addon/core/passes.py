@@ -17,8 +17,10 @@ The data passes describe what the camera sees, not light (``paths.data_passes``,
 (distance along the view axis, 1e10 where the pixel's first sample misses), ``Mist``, ``Normal``, ``Position``,
 ``Ambient Occlusion``, ``Object Index``, ``Material Index`` and the Cryptomatte passes ``CryptoObject00``,
 ``CryptoMaterial00``, ``CryptoAsset00``... (two id-coverage ranks per RGBA pass, ``core.cryptomatte``). Cycles'
-Denoising Data: ``Denoising Albedo`` (Diffuse Color + Glossy Color), ``Denoising Normal`` (Normal in camera space:
-x right, y up, z forward) and, when the picture is denoised (``core.denoise``), ``Noisy Image``: Combined before.
+Denoising Data: ``Denoising Albedo`` (Diffuse Color + Glossy Color + Emit, and the world where the camera sees
+it unless the film is transparent: OIDN then keeps an emitter's or the sky's edges), ``Denoising Normal`` (Normal in
+camera space: x right, y up, z forward) and, when the picture is denoised (``core.denoise``), ``Noisy Image``:
+Combined before.
 """
 from __future__ import annotations
 
