@@ -3,9 +3,12 @@
 At a shading point x, one *BSDF sample* and one *power-based light sample* estimate the light from the photon
 lights, combined by multiple importance sampling with the power heuristic (eq. 5):
 
-- power-based (eq. 4): light j with probability P_j / sum P, then a direction uniform in the cone that holds its
-  sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j)); the ray's hit y adds s_j(y) L_j, zero outside the
-  sphere (``photon_lights``: s_j is the light's share of y, L_j its radiance);
+- power-based (eq. 4): light j with probability P_j / sum P, then a direction toward a point of its disc (the
+  light's support: ``photon_lights``), drawn with the profile of its share; the ray's hit y adds s_j(y) L_j, zero
+  outside the support (s_j is the light's share of y, L_j its radiance). Deviation: Li et al. draw the direction
+  uniform in the cone that holds the light's sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j)); most of that
+  cone looks past the thin disc (36 % of the lit light samples met it in cornell_area, 66 % toward the disc), and
+  the disc's samples cut the gather's noise by 11 % there at the same time (bench/README.md);
 - BSDF: a direction w_r from the point's lobe (cosine-weighted for the diffuse one) traced to y_r; every light
   whose sphere holds y_r adds s_i(y_r) L_i.
 
@@ -35,8 +38,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from ...core.color import largest
-from ...core.compiled import kernel
-from ...core.sampling import dot, group_sum, sample_cdf, uniform_cone
+from ...core.compiled import inline, kernel
+from ...core.sampling import basis, dot, group_sum, sample_cdf
 from ...lights.direct import direct_light
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import bounce
@@ -101,8 +104,8 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
     hit_light[light_hit] = drawn[source[light_hit]]
     pair, light, share = _covering(lights, y)
     mean_share = _add_samples(out, owner, source, weight, hit_light, p_light, pdf, toward, w, y.position,
-                              y.shading_normal, point.position, pair, light, share, lights.position, lights.radius,
-                              choice, radiance, density, float(settings.n_min),
+                              y.shading_normal, point.position, pair, light, share, lights.position,
+                              lights.normal, lights.radius, choice, radiance, density, float(settings.n_min),
                               max(settings.n_max - settings.n_min, 1e-9), extend)
     if not extend:
         return []
@@ -111,16 +114,17 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
 
 
 def _light_directions(point, lights, rng, choice, cdf, total_power):
-    """Power-based light sampling (eq. 4): per point a light j with probability P_j / sum P and a direction
-    uniform in the cone that holds its sphere. Returns (the points whose direction leaves their surface, the
-    directions, j, the pdfs p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j)))."""
+    """Power-based light sampling (eq. 4): per point a light j with probability P_j / sum P, then a point on its
+    disc by its share's profile (``_toward_discs``). Returns (the points whose direction leaves their surface, the
+    directions, j, the pdfs p_j(w))."""
     k = len(point)
     if total_power <= 0:
         return np.zeros(0, np.int64), np.zeros((k, 3)), np.zeros(k, np.int64), np.zeros(k)
     j = sample_cdf(cdf, rng.random(k))
-    axis, cone, p_light = _cones(point.position, j, lights.position, lights.radius, choice)
-    w = uniform_cone(rng.random(k), rng.random(k), axis, 1.0 - cone)
-    lit = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(point.geometric_normal, w) > 0.0))[0]
+    w, p_light = _toward_discs(point.position, j, lights.position, lights.normal, lights.radius, choice,
+                               rng.random(k), rng.random(k))
+    lit = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(point.geometric_normal, w) > 0.0) &
+                     (p_light > 0.0))[0]
     return lit, w, j, p_light
 
 
@@ -151,30 +155,49 @@ def _extended(y, rows, owner, carried, mean_share, light_set, tracer, rng, out):
     return following
 
 
-@kernel
-def _one_minus_cos_cone(radius, dist):
-    """1 - cos(theta) of the cone holding a sphere of ``radius`` at ``dist``, stable for tiny spheres; 2 (the whole
-    sphere of directions) from inside."""
-    if dist <= radius:
-        return 2.0
-    s2 = min((radius / max(dist, 1e-300)) ** 2, 1.0)
-    return s2 / (1.0 + np.sqrt(1.0 - s2))
+@inline
+def _disc_density(x0, x1, x2, d0, d1, d2, centre, normal, radius):
+    """The solid-angle pdf with which ``_toward_discs`` draws the unit direction d from x, given its light (centre,
+    normal, radius): where the ray meets the light's plane at q inside its disc, (1 - |q - c|^2 / r^2) /
+    (pi r^2 / 2) x t^2 / |cos|; 0 where it misses the disc."""
+    across = d0 * normal[0] + d1 * normal[1] + d2 * normal[2]
+    if abs(across) < 1e-12:
+        return 0.0
+    t = ((centre[0] - x0) * normal[0] + (centre[1] - x1) * normal[1] + (centre[2] - x2) * normal[2]) / across
+    q0, q1, q2 = x0 + t * d0 - centre[0], x1 + t * d1 - centre[1], x2 + t * d2 - centre[2]
+    r2 = radius * radius
+    inside = 1.0 - (q0 * q0 + q1 * q1 + q2 * q2) / r2
+    if t <= 0.0 or inside <= 0.0:
+        return 0.0
+    return inside / (0.5 * np.pi * r2) * t * t / abs(across)
 
 
 @kernel
-def _cones(position, drawn, centre, radius, choice):
-    """Per point, the cone toward its light ``drawn``: (unit axes, 1 - cos theta_j, the pdf of eq. 4 in it)."""
+def _toward_discs(position, drawn, centre, normal, radius, choice, u1, u2):
+    """Per point, a direction toward its light ``drawn``: a point q on the light's disc (its support: the surface
+    within its sphere, within ``SLAB`` radii of its tangent plane) with density (1 - rho^2 / r^2) / (pi r^2 / 2),
+    the profile of its share, and the pdf of the direction, P_j / sum P x ``_disc_density`` (0 seen edge-on).
+    Li et al. draw a direction uniform in the cone that holds the light's sphere (eq. 4), of which about a third
+    met the surface inside it in the Cornell box: the rest were seen off the disc's plane."""
     k = len(drawn)
-    axis, cone, pdf = np.empty((k, 3)), np.empty(k), np.empty(k)
+    w, pdf = np.zeros((k, 3)), np.zeros(k)
     for i in range(k):
         j = drawn[i]
-        t0, t1, t2 = centre[j, 0] - position[i, 0], centre[j, 1] - position[i, 1], centre[j, 2] - position[i, 2]
-        dist = np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
-        inv = max(dist, 1e-300)
-        axis[i, 0], axis[i, 1], axis[i, 2] = t0 / inv, t1 / inv, t2 / inv
-        cone[i] = _one_minus_cos_cone(radius[j], dist)
-        pdf[i] = choice[j] / (2.0 * np.pi * cone[i])
-    return axis, cone, pdf
+        n0, n1, n2 = normal[j, 0], normal[j, 1], normal[j, 2]
+        t0, t1, t2, b0, b1, b2 = basis(n0, n1, n2)
+        rho = radius[j] * np.sqrt(max(1.0 - np.sqrt(max(1.0 - u1[i], 0.0)), 0.0))
+        c, s = rho * np.cos(2.0 * np.pi * u2[i]), rho * np.sin(2.0 * np.pi * u2[i])
+        d0 = centre[j, 0] + c * t0 + s * b0 - position[i, 0]
+        d1 = centre[j, 1] + c * t1 + s * b1 - position[i, 1]
+        d2 = centre[j, 2] + c * t2 + s * b2 - position[i, 2]
+        dist = np.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        if dist <= 0.0:
+            continue
+        d0, d1, d2 = d0 / dist, d1 / dist, d2 / dist
+        w[i, 0], w[i, 1], w[i, 2] = d0, d1, d2
+        pdf[i] = choice[j] * _disc_density(position[i, 0], position[i, 1], position[i, 2], d0, d1, d2, centre[j],
+                                           normal[j], radius[j])
+    return w, pdf
 
 
 @kernel
@@ -196,7 +219,7 @@ def _blend_weight(footprint, density, n_min, span, extend):
 
 @kernel
 def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, normal, position, pair, light, share,
-                 centre, radius, choice, radiance, density, n_min, span, extend):
+                 centre, facing, radius, choice, radiance, density, n_min, span, extend):
     """out[owner] += each hit's estimate; returns (H,) the mean w_v of the lights covering each BSDF sample's hit,
     by their radiance (0 where none covers it or for a light sample).
 
@@ -223,8 +246,8 @@ def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, 
                 mine[h] += share[q]
             continue
         s = source[h]
-        t0, t1, t2 = centre[i, 0] - position[s, 0], centre[i, 1] - position[s, 1], centre[i, 2] - position[s, 2]
-        p_i = choice[i] / (2.0 * np.pi * _one_minus_cos_cone(radius[i], np.sqrt(t0 * t0 + t1 * t1 + t2 * t2)))
+        p_i = choice[i] * _disc_density(position[s, 0], position[s, 1], position[s, 2], w[s, 0], w[s, 1], w[s, 2],
+                                        centre[i], facing[i], radius[i])
         w_v = _blend_weight(footprint[h], density[i], n_min, span, extend)
         mis = _power_heuristic(pdf[h], p_i) * w_v
         r0, r1, r2 = radiance[i, 0] * share[q], radiance[i, 1] * share[q], radiance[i, 2] * share[q]
