@@ -66,9 +66,9 @@ def _guide_means(passes) -> dict:
 
 
 def test_denoising_albedo_and_normal_are_cycles(ext, tmp_path):
-    """Denoising Albedo is Diffuse + Glossy Color, Denoising Normal the Normal in camera space (x right, y up, z
-    forward), as Cycles writes them: means over the covered pixels within 1 % of the committed reference's (per
-    channel of the albedo; the normal's mean direction within 0.01)."""
+    """Denoising Albedo is Diffuse + Glossy Color (+ what is emitted, nothing here), Denoising Normal the Normal in
+    camera space (x right, y up, z forward), as Cycles writes them: means over the covered pixels within 1 % of the
+    committed reference's (per channel of the albedo; the normal's mean direction within 0.01)."""
     import bpy
     from vpl_gi.operators import engine
     reference = json.loads(GUIDES.read_text())
