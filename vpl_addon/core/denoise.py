@@ -3,9 +3,9 @@ render denoiser does it: the "RT" filter on the HDR colour, guided by the first 
 
 The guides are Cycles' ``Denoising Albedo`` (diffuse plus glossy colour plus emission, so that an emitter's edges
 are kept) and ``Denoising Normal`` (the shading normal in camera space, x right, y up, z forward), per pixel the mean
-over its samples. They are nearly noise-free here (no
-path is traced for them), but texture detail and anti-aliased edges make them differ from sample to sample, so they
-are prefiltered by OIDN first, as its documentation recommends for guides that are not clean ("cleanAux").
+over its samples. They are nearly noise-free here (no path is traced for them), but texture detail and anti-aliased
+edges make them differ from sample to sample, so they are prefiltered by OIDN first, as its documentation
+recommends for guides that are not clean ("cleanAux").
 
 OIDN's network is not symmetric under a vertical flip (the same image upside down denoises 2-3 % differently, in
 rMAE), so the images go to it bottom row first, the way Blender holds images: a compositor Denoise node fed by our
