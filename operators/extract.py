@@ -190,6 +190,7 @@ def _light(obj, matrix, warnings):
                           round=data.shape in {"DISK", "ELLIPSE"}, spread=getattr(data, "spread", math.pi))
         if not normalize:
             light.power = light.power * light.area
+        light.visible = bool(getattr(obj, "visible_camera", False))
         return light
     warnings.append(f"light {name!r}: type {data.type} is not supported; skipped")
     return None

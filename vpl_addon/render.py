@@ -314,7 +314,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     guide_normal[kind, pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
                     guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
-            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission)
+            lamps = gbuf.lamps()  # the area lights the camera sees
+            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission) + lamps
             images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
             if need_background:
                 background = gbuf.background(lights.world)
@@ -337,9 +338,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     if name in want:
                         images[name][pixels] = image
             if P.EMIT in want:
-                images[P.EMIT][pixels] = gbuf.splat(surf.emission)
+                images[P.EMIT][pixels] = gbuf.splat(surf.emission) + lamps
             if P.DENOISING_ALBEDO in want:  # Cycles': the colour reflected, plus what is emitted and the world seen
-                albedo = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels] + gbuf.splat(surf.emission)
+                albedo = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels] + gbuf.splat(surf.emission) + lamps
                 images[P.DENOISING_ALBEDO][pixels] = albedo + (background if need_background and
                                                                not settings.film_transparent else 0.0)
             if data_wanted:

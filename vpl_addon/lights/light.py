@@ -20,6 +20,7 @@ class Light:
     name: str
     distant = False  # no position (the sun): the light tree keeps it beside its nodes
     planar = False  # emits from a plane through its bounds' centre, to the side its orientation's axis points to
+    visible = False  # camera rays see it (Cycles' Ray Visibility > Camera); area lights draw (``paths.gbuffer``)
 
     @property
     def is_active(self) -> bool:

@@ -4,11 +4,12 @@ For a block of pixels it traces ``spp`` primary rays per pixel (stratified sub-p
 filter, see ``core.camera``) and keeps the ``Surface`` of the samples that hit, and the directions of those that miss.
 Passes are formed by ``splat``: the mean over a pixel's samples, misses counting as zero, exactly like Cycles' film
 with a transparent background; ``background`` is the other share of the pixel, what its missing samples see of the
-world (Cycles' Environment pass).
+world (Cycles' Environment pass). An area light the camera sees (``Light.visible``) adds its radiance to what its
+samples see behind it, as in Cycles (``lamps``).
 """
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -16,12 +17,21 @@ from ..core.sampling import group_sum, stratified_2d
 from ..materials.surface import Surface, shade
 
 
-def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray):
+def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None):
     """The unit directions of the camera's rays through image positions (px, py) and what they hit between the clip
-    distances."""
+    distances; given ``lights`` (a list), also (N,3) the radiance of the visible area lights each ray meets before its
+    surface. As in Cycles, a light the camera sees adds its light to what is behind it and hides nothing."""
     origins, dirs, near = cam.rays(px, py)
     origins = origins + dirs * near[:, None]
-    return dirs, tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
+    hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
+    if lights is None:
+        return dirs, hits
+    lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, cam.clip_end - near)
+    for light in lights:
+        t, radiance, _ = light.mis(origins, dirs, dirs)
+        seen = (t > 0.0) & (t < far)
+        lamp[seen] += radiance[seen]
+    return dirs, hits, lamp
 
 
 @dataclass
@@ -32,6 +42,8 @@ class GBuffer:
     surface: Surface  # (K,) what each hit sees
     missed: np.ndarray  # (M,) index of each miss among the P*spp samples
     miss_direction: np.ndarray  # (M,3) the direction of each miss's camera ray
+    on_lamp: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (L,) samples that see a light
+    lamp_radiance: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (L,3) what they see of it
 
     @staticmethod
     def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
@@ -41,11 +53,12 @@ class GBuffer:
         pix = np.repeat(pixels, spp)
         px = (pix % cam.width) + 0.5 + cam.filter_offsets(u.ravel())
         py = (pix // cam.width) + 0.5 + cam.filter_offsets(v.ravel())
-        dirs, hits = camera_hits(cam, tracer, px, py)
+        dirs, hits, lamp = camera_hits(cam, tracer, px, py, [light for light in scene.lights if light.visible])
         sample = np.nonzero(hits.hit)[0]
+        on_lamp = np.nonzero((lamp > 0.0).any(axis=1))[0]
         missed = np.nonzero(~hits.hit)[0]
         return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
-                       missed=missed, miss_direction=dirs[missed])
+                       missed=missed, miss_direction=dirs[missed], on_lamp=on_lamp, lamp_radiance=lamp[on_lamp])
 
     def __len__(self):
         return len(self.sample)
@@ -67,6 +80,11 @@ class GBuffer:
             return np.zeros((len(self.pixels), 3))
         return group_sum(self.missed // self.spp, np.asarray(world.radiance(self.miss_direction), np.float64),
                          len(self.pixels)) / self.spp
+
+    def lamps(self) -> np.ndarray:
+        """(P,3) per-pixel mean of the radiance the camera sees of visible area lights (on top of what their samples
+        see behind them)."""
+        return group_sum(self.on_lamp // self.spp, self.lamp_radiance, len(self.pixels)) / self.spp
 
     @property
     def coverage(self) -> np.ndarray:
