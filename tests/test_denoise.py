@@ -89,12 +89,14 @@ def test_the_denoising_albedo_of_an_emitter_and_of_the_world_is_cycles(ext, tmp_
     0.2) emitting five times that gives (6, 3.6, 1.2). With the reflected colour alone, our denoised picture blurred
     such edges (cornell_textured's panel: 1.75 where Cycles has 2.08 beside it)."""
     import bpy
-    from conftest import add_mesh, camera_and_black_world
+    from conftest import add_mesh, camera_and_black_world, shader_material
     from vpl_gi.operators import engine
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    wall = surface_material(bpy, "Wall", (0.5, 0.5, 0.5), 0.0)
-    panel = surface_material(bpy, "Panel", (1.0, 0.6, 0.2), 5.0)
+    wall, panel = (shader_material(bpy, name, "ShaderNodeBsdfPrincipled",  # no specular: the colour is the albedo
+                                   {"Base Color": (*color, 1.0), "Emission Color": (*color, 1.0),
+                                    "Emission Strength": strength, "Specular IOR Level": 0.0})
+                   for name, color, strength in (("Wall", (0.5, 0.5, 0.5), 0.0), ("Panel", (1.0, 0.6, 0.2), 5.0)))
     add_mesh(bpy, "Wall", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)], material=wall)
     add_mesh(bpy, "Panel", [(-0.4, -0.4, 0.01), (0.4, -0.4, 0.01), (0.4, 0.4, 0.01), (-0.4, 0.4, 0.01)],
              [(0, 1, 2, 3)], material=panel)
@@ -108,19 +110,6 @@ def test_the_denoising_albedo_of_an_emitter_and_of_the_world_is_cycles(ext, tmp_
     for where in ((16, 16), (1, 1), (16, 8)):  # the panel, the world, the wall
         np.testing.assert_allclose(albedo[1][where][:3], albedo[0][where][:3], rtol=0.02, atol=0.005)
     np.testing.assert_allclose(albedo[0][16, 16][:3], (6.0, 3.6, 1.2), rtol=0.01)
-
-
-def surface_material(bpy, name, color, strength):
-    """A Principled BSDF of base ``color``, without specular, emitting ``strength`` times that colour."""
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:  # Blender < 5.0
-        mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*color, 1.0)
-    bsdf.inputs["Emission Color"].default_value = (*color, 1.0)
-    bsdf.inputs["Emission Strength"].default_value = strength
-    bsdf.inputs["Specular IOR Level"].default_value = 0.0
-    return mat
 
 
 def test_compositor_denoise_node_gives_the_denoised_render(ext, tmp_path):

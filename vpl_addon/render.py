@@ -337,10 +337,11 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy), color))):
                     if name in want:
                         images[name][pixels] = image
+            emitted = gbuf.splat(surf.emission) + lamps if {P.EMIT, P.DENOISING_ALBEDO} & want else None
             if P.EMIT in want:
-                images[P.EMIT][pixels] = gbuf.splat(surf.emission) + lamps
+                images[P.EMIT][pixels] = emitted
             if P.DENOISING_ALBEDO in want:  # Cycles': the colour reflected, plus what is emitted and the world seen
-                albedo = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels] + gbuf.splat(surf.emission) + lamps
+                albedo = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels] + emitted
                 images[P.DENOISING_ALBEDO][pixels] = albedo + (background if need_background and
                                                                not settings.film_transparent else 0.0)
             if data_wanted:

@@ -23,10 +23,11 @@ def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None):
     surface. As in Cycles, a light the camera sees adds its light to what is behind it and hides nothing."""
     origins, dirs, near = cam.rays(px, py)
     origins = origins + dirs * near[:, None]
-    hits = tracer.intersect(origins, dirs, tmax=np.maximum(cam.clip_end - near, 0.0))
+    tmax = np.maximum(cam.clip_end - near, 0.0)
+    hits = tracer.intersect(origins, dirs, tmax=tmax)
     if lights is None:
         return dirs, hits
-    lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, cam.clip_end - near)
+    lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, tmax)
     for light in lights:
         t, radiance, _ = light.mis(origins, dirs, dirs)
         seen = (t > 0.0) & (t < far)
