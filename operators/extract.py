@@ -92,7 +92,7 @@ def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warni
         if layer is None:
             if materials.images.get(i):
                 warnings.append(f"object {obj.name!r}: it has no UV map, so material "
-                                f"{materials.rows[i - 1]['name']!r} reads image {materials.images[i][0]!r} at UV "
+                                f"{materials.rows[i - 1]['name']!r} reads texture {materials.images[i][0]!r} at UV "
                                 f"(0, 0)")
             continue
         if name is not None and layer.name != name:

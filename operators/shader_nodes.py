@@ -12,8 +12,10 @@ An input's link is followed back through reroutes to an Image Texture, across wh
 - a Color Attribute node (or an Attribute node's Color of a geometry attribute) in place of the image, or multiplied
   with it by a Mix Color (Multiply, factor 1): the mesh's colour attribute (vertex colours, glTF's COLOR_0).
 The image's Vector comes from the default UV map, a UV Map node or Texture Coordinate's UV, through a Mapping node
-(its location, rotation and scale as an affine UV transform). Links are followed through reroutes and into and out of
-node groups. Anything else keeps the input's value, with one warning naming the material, the input and the node.
+(its location, rotation and scale as an affine UV transform). A Checker Texture of UV coordinates with constant
+colours and scale stands where an image may: it becomes a 2x2 image read Closest. Links are followed through
+reroutes and into and out of node groups. Anything else keeps the input's value, with one warning naming the
+material, the input and the node.
 
 Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass (thin glass) and Emission shaders; a Mix Shader
 with a Transparent BSDF is an alpha cut-out of the other shader, an Add Shader of an Emission shader makes the other
@@ -170,8 +172,8 @@ def _attribute(out) -> str | None:
     return None
 
 
-def _mapping_uv(node) -> tuple | None:
-    """The UV affine transform (a, b, c, d, e, f) of a Mapping node with constant inputs, None if unsupported."""
+def _mapping(node) -> tuple[np.ndarray, np.ndarray] | None:
+    """(m (3,3), t (3,)) of a Mapping node with constant inputs, v' = m v + t; None if unsupported."""
     kind = node.vector_type
     loc, rot, scale = (_constant(node.inputs[k]) for k in ("Location", "Rotation", "Scale"))
     if kind not in ("POINT", "TEXTURE") or None in (loc, rot, scale):
@@ -182,13 +184,35 @@ def _mapping_uv(node) -> tuple | None:
         np.array([[1, 0, 0], [0, cx, -sx], [0, sx, cx]])  # Blender's XYZ Euler: X first
     s = np.diag(scale)
     if kind == "POINT":
-        m, t = r @ s, np.array(loc)
-    else:  # the inverse: the texture moves instead of the coordinates
-        if min(abs(v) for v in scale) < 1e-12:
-            return None
-        m = np.linalg.inv(s) @ r.T
-        t = -m @ np.array(loc)
-    return (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1])
+        return r @ s, np.array(loc, np.float64)
+    if min(abs(v) for v in scale) < 1e-12:  # Texture: the inverse, the texture moves instead of the coordinates
+        return None
+    m = np.linalg.inv(s) @ r.T
+    return m, -m @ np.array(loc, np.float64)
+
+
+def _checker(node, m: np.ndarray, t: np.ndarray, fac: bool) -> tuple[np.ndarray, tuple] | None:
+    """(a 2x2 texel image, the UV transform) that a Closest, Repeat lookup turns into Cycles' Checker Texture
+    ``node`` (its Color output, or with ``fac`` its Fac: 1 and 0) at p = m (u, v, 0) + t; None when its Color1,
+    Color2 or Scale is linked or p's z varies over the UVs. Cycles colours a point Color1 where the sum of the floors
+    of (p Scale + 1e-6) 0.999999 is odd, Color2 where it is even: a texel is a cell of the pattern, the image one
+    period."""
+    c1, c2, scale = (_constant(node.inputs[k]) for k in ("Color1", "Color2", "Scale"))
+    if None in (c1, c2, scale) or abs(m[2, 0]) + abs(m[2, 1]) > 1e-12:
+        return None
+    if fac:
+        c1, c2 = (1.0, 1.0, 1.0), (0.0, 0.0, 0.0)
+
+    def cell(x):  # a coordinate in cells of the pattern, nudged off integers as Cycles does
+        return (x * scale + 1e-6) * 0.999999
+
+    z_odd = int(math.floor(cell(t[2]))) % 2
+    texels = np.empty((2, 2, 3), np.float32)
+    for y in range(2):
+        for x in range(2):
+            texels[y, x] = (c1 if (x + y + z_odd) % 2 else c2)[:3]
+    k = scale * 0.999999 / 2
+    return texels, (k * m[0, 0], k * m[0, 1], cell(t[0]) / 2, k * m[1, 0], k * m[1, 1], cell(t[1]) / 2)
 
 
 class MaterialTable:
@@ -202,7 +226,7 @@ class MaterialTable:
         self.texture_index: dict[tuple[str, bool], int] = {}
         self.encoded: list[bool] = []  # per texture: its values sRGB-encoded (``TextureMap.srgb``)
         self.uv_map: dict[int, str | None] = {}
-        self.images: dict[int, list[str]] = {}  # material id -> names of the images it reads
+        self.images: dict[int, list[str]] = {}  # material id -> names of the images (and checker nodes) it reads
         self.color_attribute: dict[int, str] = {}  # material id -> the colour attribute it reads ('' the default)
         self.warnings = warnings
         self.holdouts: list[str] = []  # names of the materials rendering a Holdout shader (``unsupported`` warns)
@@ -248,11 +272,17 @@ class MaterialTable:
                                      f"({image.filepath or 'no file'}); using the input's value instead")
                 self.texture_index[key] = -1
             else:
-                self.textures.append(pixels)
-                self.encoded.append(stored_as_srgb(image))
-                self.texture_index[key] = len(self.textures) - 1
+                self._texture(key, pixels, stored_as_srgb(image))
         index = self.texture_index[key]
         return None if index < 0 else index
+
+    def _texture(self, key: tuple, pixels: np.ndarray, encoded: bool = False) -> int:
+        """The index of the texture ``key`` names, ``pixels`` added the first time."""
+        if key not in self.texture_index:
+            self.textures.append(pixels)
+            self.encoded.append(encoded)
+            self.texture_index[key] = len(self.textures) - 1
+        return self.texture_index[key]
 
     def _map(self, material, label: str, socket, normal: bool = False) -> TextureMap | None:
         """The TextureMap feeding ``socket`` (None with a warning when the chain is not one the engine reads)."""
@@ -266,7 +296,7 @@ class MaterialTable:
 
         while out is not None:
             node = out.node
-            if node.type == "TEX_IMAGE" or (_attribute(out) is not None and attribute is None):
+            if node.type in ("TEX_IMAGE", "TEX_CHECKER") or (_attribute(out) is not None and attribute is None):
                 break
             if normal and node.type == "NORMAL_MAP":
                 s = _constant(node.inputs["Strength"])
@@ -308,42 +338,55 @@ class MaterialTable:
         node = out.node
         if normal:
             return unsupported(node, " without a Normal Map node")
-        if node.type != "TEX_IMAGE":  # a colour attribute alone
+        if node.type not in ("TEX_IMAGE", "TEX_CHECKER"):  # a colour attribute alone
             self._attributes.append(_attribute(out))
             return TextureMap(-1, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), vertex=True)
-        if node.image is None:
+        if node.type == "TEX_IMAGE" and node.image is None:
             return None
-        if node.projection != "FLAT":
+        if node.type == "TEX_IMAGE" and node.projection != "FLAT":
             return unsupported(node, f" with {node.projection.lower()} projection")
         if out.name == "Alpha":
             if channel >= 0:
                 return unsupported(node, " (a channel of its alpha)")
             channel = 3
-        uv, via = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0), _source(node.inputs["Vector"])
+        m, t, via = np.eye(3), np.zeros(3), _source(node.inputs["Vector"])
+        if via is None and node.type == "TEX_CHECKER":
+            return unsupported(node, " at its default Generated coordinates (only UV coordinates)")
         if via is not None and via.node.type == "MAPPING":
-            uv = _mapping_uv(via.node)
-            if uv is None:
+            mapping = _mapping(via.node)
+            if mapping is None:
                 return unsupported(via.node, " (only Point or Texture type with constant inputs)")
-            via = _source(via.node.inputs["Vector"])
+            (m, t), via = mapping, _source(via.node.inputs["Vector"])
         if via is not None:
             if via.node.type == "UVMAP" and not via.node.from_instancer:
                 uv_name = uv_name or via.node.uv_map or None
             elif not (via.node.type == "TEX_COORD" and via.name == "UV"):
-                return unsupported(via.node, " as the image's Vector (only UV coordinates)")
-        extension = node.extension if node.extension in ("REPEAT", "EXTEND", "CLIP") else "REPEAT"
-        if extension != node.extension:
-            self.warnings.append(f"material {material.name!r}: image {node.image.name!r} extension "
-                                 f"{node.extension.title()} is read as Repeat")
-        index = self._image(node.image, material, alpha=channel == 3)
-        if index is None:
-            return None
+                return unsupported(via.node, f" as the {node.bl_label}'s Vector (only UV coordinates)")
+        if node.type == "TEX_CHECKER":
+            checker = _checker(node, m, t, fac=out.name == "Fac")
+            if checker is None:
+                return unsupported(node, " (only constant colours and scale, on UVs mapped within their plane)")
+            texels, uv = checker
+            index, extension, closest, srgb = self._texture(("checker", texels.tobytes()), texels), "REPEAT", \
+                True, False
+            self._image_names.append(node.name)
+        else:
+            extension = node.extension if node.extension in ("REPEAT", "EXTEND", "CLIP") else "REPEAT"
+            if extension != node.extension:
+                self.warnings.append(f"material {material.name!r}: image {node.image.name!r} extension "
+                                     f"{node.extension.title()} is read as Repeat")
+            index = self._image(node.image, material, alpha=channel == 3)
+            if index is None:
+                return None
+            uv, closest, srgb = (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1]), node.interpolation == "Closest", \
+                self.encoded[index]
+            self._image_names.append(node.image.name)
         self._uv_names.append(uv_name)
-        self._image_names.append(node.image.name)
         if attribute is not None:
             self._attributes.append(attribute)
-        return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), tuple(uv),
-                          extension, node.interpolation == "Closest", float(strength), float(cutoff),
-                          vertex=attribute is not None, srgb=self.encoded[index])
+        return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)),
+                          tuple(float(v) for v in uv), extension, closest, float(strength), float(cutoff),
+                          vertex=attribute is not None, srgb=srgb)
 
     def _read(self, material) -> dict:
         row = {"name": material.name}

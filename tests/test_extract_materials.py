@@ -305,3 +305,43 @@ def test_bump_nodes_and_unrendered_layers(bpy):
         "material 'Linked': Bump 'Bump' with a linked Strength or Distance is not supported; no bump",
         "material 'Coated': 'Principled BSDF' Coat Weight 0.5: not rendered (that layer is not supported yet)",
         "material 'Coated': 'Principled BSDF' Sheen Weight is linked: not rendered (that layer is not supported yet)"]
+
+
+def test_checker_textures_of_uvs_are_read_and_others_warn(bpy):
+    """A Checker Texture of UV coordinates becomes a 2x2 texture read closest; one at its default Generated
+    coordinates, with a linked colour, or turned out of the UV plane (its z would vary) warns once, naming its
+    material and node, and leaves the Base Color its value."""
+    def checker(name, z, vector=None, rotation=None, linked=False):
+        mat = bpy.data.materials.new(name)
+        nodes, links = mat.node_tree.nodes, mat.node_tree.links
+        node = nodes.new("ShaderNodeTexChecker")
+        node.name = f"{name} checker"
+        if vector == "UV":
+            uv = nodes.new("ShaderNodeTexCoord").outputs["UV"]
+            if rotation is not None:
+                mapping = nodes.new("ShaderNodeMapping")
+                mapping.inputs["Rotation"].default_value = rotation
+                links.new(uv, mapping.inputs["Vector"])
+                uv = mapping.outputs["Vector"]
+            links.new(uv, node.inputs["Vector"])
+        if linked:
+            links.new(nodes.new("ShaderNodeTexNoise").outputs["Color"], node.inputs["Color1"])
+        links.new(node.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+        obj = add_mesh(bpy, name, [(-1, -1, z), (1, -1, z), (1, 1, z), (-1, 1, z)], [(0, 1, 2, 3)], material=mat)
+        obj.data.uv_layers.new(name="UVMap")
+
+    checker("Read", 0.0, "UV", rotation=(0.0, 0.0, 0.3))
+    checker("Generated", -1.0)
+    checker("Linked", -2.0, "UV", linked=True)
+    checker("Tilted", -3.0, "UV", rotation=(0.4, 0.0, 0.0))
+    lamp = bpy.data.objects.new("Lamp", bpy.data.lights.new("Lamp", "SUN"))
+    bpy.context.scene.collection.objects.link(lamp)
+    scene, warnings = extracted(bpy)
+    for name in ("Generated", "Linked", "Tilted"):
+        assert len([w for w in warnings if f"'{name}'" in w and f"{name} checker" in w]) == 1, (name, warnings)
+    assert len(warnings) == 3, warnings
+    m = scene.materials
+    read = [i for i, row in enumerate(m.names) if row == "Read"][0]
+    tmap = m.maps[m.map_of["base_color"][read]]
+    assert tmap.closest and scene.textures[tmap.image].shape == (2, 2, 3)
+    assert all(m.map_of["base_color"][i] < 0 for i, row in enumerate(m.names) if row != "Read")

@@ -2,7 +2,8 @@
 across the blend between two texels against Cycles'. Cycles keeps such an image sRGB-encoded and makes the result
 of its bilinear lookup linear, so the blend from black to white is the sRGB curve, not a straight line (at its
 middle 0.21, not 0.5): the checkerboard's edges of cornell_textured were where our picture differed most from
-Cycles'."""
+Cycles'. And a Checker Texture node of UV coordinates (veach_ajar's floor), straight and through a Mapping node,
+drawn cell for cell as Cycles draws it."""
 
 import numpy as np
 import pytest
@@ -58,3 +59,59 @@ def test_an_8_bit_image_blends_its_texels_as_cycles_does(ext, tmp_path, colorspa
     assert np.abs(row[0][middle] - row[1][middle]).max() < 0.02
     # the blend at the middle: the sRGB curve's 0.21 (Cycles'), a straight line's 0.5 for data
     assert row[1][31:33].mean() == pytest.approx(0.21 if colorspace == "sRGB" else 0.5, abs=0.05)
+
+
+def checker_blend(tmp_path, mapped):
+    """A plane the camera sees whole (UVs 0-1) coloured by a Checker Texture of UV coordinates, straight (Scale 4)
+    or through a Mapping node (moved, turned about z, scaled unevenly, and lifted in z by 0.4 so that the pattern's
+    colours swap) with Scale 3."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 48
+    plane = add_mesh(bpy, "Plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)])
+    layer = plane.data.uv_layers.new(name="UVMap")
+    for loop, uv in zip(plane.data.loops, ((0, 0), (1, 0), (1, 1), (0, 1))):
+        layer.data[loop.index].uv = uv
+    mat = bpy.data.materials.new("Checker")
+    if mat.node_tree is None:  # Blender < 5.0
+        mat.use_nodes = True
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    checker = nodes.new("ShaderNodeTexChecker")
+    checker.inputs["Color1"].default_value = (0.9, 0.5, 0.1, 1.0)
+    checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+    vector = nodes.new("ShaderNodeTexCoord").outputs["UV"]
+    if mapped:
+        mapping = nodes.new("ShaderNodeMapping")
+        mapping.inputs["Location"].default_value = (0.1, 0.2, 0.4)
+        mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.5)
+        mapping.inputs["Scale"].default_value = (1.5, 2.0, 1.0)
+        links.new(vector, mapping.inputs["Vector"])
+        vector = mapping.outputs["Vector"]
+    checker.inputs["Scale"].default_value = 3.0 if mapped else 4.0
+    links.new(vector, checker.inputs["Vector"])
+    links.new(checker.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+    plane.data.materials.append(mat)
+    add_sun(bpy, scene, (0.0, 0.0, 0.0), energy=1.0)
+    camera_and_black_world(bpy, scene, (0.0, 0.0, 5.0))
+    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
+    path = tmp_path / f"checker_{mapped}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+@pytest.mark.parametrize("mapped", [False, True])
+def test_a_checker_texture_of_uvs_is_drawn_as_cycles_draws_it(ext, tmp_path, mapped):
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    blend = checker_blend(tmp_path, mapped)
+    ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles.exr"
+    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "16", "--method", "none")
+    assert code == 0, stderr
+    assert "Checker" not in stderr  # read, not warned about
+    code, _, stderr = run_cli("reference", blend, "-o", cycles, "--samples", "16", "--cache-dir", tmp_path / "cache")
+    assert code == 0, stderr
+    red = [read_passes(str(path))[0]["Diffuse Color"][..., 0] for path in (ours, cycles)]  # Color1 0.9, Color2 0.05
+    gap = np.abs(red[0] - red[1])
+    print(mapped, gap.max(), gap.mean())
+    assert gap.max() < 0.85 / 2  # no cell of the other colour: at most a pixel an edge crosses, sampled otherwise
+    assert gap.mean() < 0.03  # edges sampled 16 times differ by some 0.02; the mean colour everywhere is 0.4 off
