@@ -177,7 +177,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
         mist = Mist() if world is None else Mist(world.mist_settings.start, world.mist_settings.depth,
                                                  MIST_FALLOFF[world.mist_settings.falloff])
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
-                              mist=mist, denoise=self.denoise, ao_distance=10.0 if world is None else world.light_settings.distance,
+                              mist=mist, denoise=self.denoise,
+                              ao_distance=10.0 if world is None else world.light_settings.distance,
                               film_transparent=self.id_data.render.film_transparent,
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
                               method=self.method, indirect_samples=self.indirect_samples, placement=placement,
