@@ -363,7 +363,7 @@ class MaterialTable:
             elif not (via.node.type == "TEX_COORD" and via.name == "UV"):
                 return unsupported(via.node, f" as the {node.bl_label}'s Vector (only UV coordinates)")
         if node.type == "TEX_CHECKER":
-            checker = _checker(node, m, t, fac=out.name == "Fac")
+            checker = _checker(node, m, t, fac=out.name != "Color")  # Fac (Factor in Blender 5)
             if checker is None:
                 return unsupported(node, " (only constant colours and scale, on UVs mapped within their plane)")
             texels, uv = checker

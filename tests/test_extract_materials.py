@@ -308,10 +308,10 @@ def test_bump_nodes_and_unrendered_layers(bpy):
 
 
 def test_checker_textures_of_uvs_are_read_and_others_warn(bpy):
-    """A Checker Texture of UV coordinates becomes a 2x2 texture read closest; one at its default Generated
-    coordinates, with a linked colour, or turned out of the UV plane (its z would vary) warns once, naming its
-    material and node, and leaves the Base Color its value."""
-    def checker(name, z, vector=None, rotation=None, linked=False):
+    """A Checker Texture of UV coordinates becomes a 2x2 texture read closest (its Fac one of 1s and 0s); one at its
+    default Generated coordinates, with a linked colour, or turned out of the UV plane (its z would vary) warns
+    once, naming its material and node, and leaves the Base Color its value."""
+    def checker(name, z, vector=None, rotation=None, linked=False, output="Color", into="Base Color"):
         mat = bpy.data.materials.new(name)
         nodes, links = mat.node_tree.nodes, mat.node_tree.links
         node = nodes.new("ShaderNodeTexChecker")
@@ -326,11 +326,12 @@ def test_checker_textures_of_uvs_are_read_and_others_warn(bpy):
             links.new(uv, node.inputs["Vector"])
         if linked:
             links.new(nodes.new("ShaderNodeTexNoise").outputs["Color"], node.inputs["Color1"])
-        links.new(node.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+        links.new(node.outputs[output], nodes["Principled BSDF"].inputs[into])
         obj = add_mesh(bpy, name, [(-1, -1, z), (1, -1, z), (1, 1, z), (-1, 1, z)], [(0, 1, 2, 3)], material=mat)
         obj.data.uv_layers.new(name="UVMap")
 
     checker("Read", 0.0, "UV", rotation=(0.0, 0.0, 0.3))
+    checker("Rough", 1.0, "UV", output="Fac", into="Roughness")  # Fac: 1 where Color1 would be, 0 elsewhere
     checker("Generated", -1.0)
     checker("Linked", -2.0, "UV", linked=True)
     checker("Tilted", -3.0, "UV", rotation=(0.4, 0.0, 0.0))
@@ -341,7 +342,8 @@ def test_checker_textures_of_uvs_are_read_and_others_warn(bpy):
         assert len([w for w in warnings if f"'{name}'" in w and f"{name} checker" in w]) == 1, (name, warnings)
     assert len(warnings) == 3, warnings
     m = scene.materials
-    read = [i for i, row in enumerate(m.names) if row == "Read"][0]
-    tmap = m.maps[m.map_of["base_color"][read]]
+    tmap = m.maps[m.map_of["base_color"][m.names.index("Read")]]
     assert tmap.closest and scene.textures[tmap.image].shape == (2, 2, 3)
     assert all(m.map_of["base_color"][i] < 0 for i, row in enumerate(m.names) if row != "Read")
+    rough = m.maps[m.map_of["roughness"][m.names.index("Rough")]]
+    assert sorted(np.unique(scene.textures[rough.image])) == [0.0, 1.0]
