@@ -175,25 +175,28 @@ def _light(obj, matrix, warnings):
             power = power * (4.0 * math.pi * radius * radius if radius > 0 else 4.0)
         soft = getattr(data, "use_soft_falloff", True)
         if data.type == "POINT":
-            return PointLight(name, pos, power, radius=radius, soft_falloff=soft)
-        return SpotLight(name, pos, power, radius=radius, soft_falloff=soft, direction=down,
-                         spot_size=data.spot_size, spot_blend=data.spot_blend,
-                         inverse_basis=np.linalg.inv(m[:3, :3]) if abs(np.linalg.det(m[:3, :3])) > 1e-300 else None)
-    if data.type == "SUN":
+            light = PointLight(name, pos, power, radius=radius, soft_falloff=soft)
+        else:
+            light = SpotLight(name, pos, power, radius=radius, soft_falloff=soft, direction=down,
+                              spot_size=data.spot_size, spot_blend=data.spot_blend,
+                              inverse_basis=np.linalg.inv(m[:3, :3]) if abs(np.linalg.det(m[:3, :3])) > 1e-300
+                              else None)
+    elif data.type == "SUN":
         half = 0.5 * data.angle
         if not normalize and half > 0:  # radiance S instead of irradiance S
             power = power * math.pi * math.sin(half) ** 2
-        return SunLight(name, down, power, angle=data.angle)
-    if data.type == "AREA":
+        light = SunLight(name, down, power, angle=data.angle)
+    elif data.type == "AREA":
         size_v = data.size_y if data.shape in {"RECTANGLE", "ELLIPSE"} else data.size
         light = AreaLight(name, pos, m[:3, 0] * data.size, m[:3, 1] * size_v, down, power,
                           round=data.shape in {"DISK", "ELLIPSE"}, spread=getattr(data, "spread", math.pi))
         if not normalize:
             light.power = light.power * light.area
-        light.visible = bool(getattr(obj, "visible_camera", False))
-        return light
-    warnings.append(f"light {name!r}: type {data.type} is not supported; skipped")
-    return None
+    else:
+        warnings.append(f"light {name!r}: type {data.type} is not supported; skipped")
+        return None
+    light.visible = bool(getattr(obj, "visible_camera", False))  # Blender's lamps start unseen by the camera
+    return light
 
 
 def _broken_light(obj, matrix, light) -> str | None:

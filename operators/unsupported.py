@@ -8,7 +8,6 @@ particle systems drawn as paths) and point clouds. Approximated: a Volume shader
 the world's Volume (none), light and shadow linking (every light reaches everything), shadow catchers and holdouts
 (ordinary objects, as Cycles renders a holdout to every ray but the camera's; a Holdout shader black), motion blur (the
 frame's instant), depth of field (a pinhole camera), Cycles' ray visibility and Indirect Only (seen by every ray).
-Left undrawn: a point, spot or sun light visible to the camera (only area lights are drawn).
 """
 from __future__ import annotations
 
@@ -36,8 +35,6 @@ CASES = {
     "depth of field": ("depth of field", "the camera renders as a pinhole, everything in focus"),
     "ray visibility": ("ray visibility", "Cycles' ray visibility and Indirect Only are ignored; these are seen by "
                                          "every ray"),
-    "seen light": ("ray visibility", "these lights are visible to the camera, where Cycles draws a point or spot "
-                                     "light's sphere and a sun's disc; VPL GI draws only area lights"),
 }
 LEFT_OUT_TYPES = {"CURVES": "hair", "POINTCLOUD": "point cloud", "VOLUME": "volume object"}
 RAYS = ("camera", "diffuse", "glossy", "transmission", "volume_scatter", "shadow")  # Object.visible_<ray>
@@ -157,9 +154,6 @@ class Unsupported:
         if linked and (obj.type == "LIGHT" or _emissive(obj, materials)):
             self.note("light linking", f"{name} ({', '.join(linked)})")
         if obj.type == "LIGHT":
-            if obj.visible_camera and obj.data.type != "AREA" and \
-                    (obj.data.angle if obj.data.type == "SUN" else obj.data.shadow_soft_size) > 0.0:
-                self.note("seen light", name)
             return
         if obj.is_shadow_catcher:
             self.note("shadow catcher", name)

@@ -144,17 +144,9 @@ def indirect_only(bpy):
     return "ray visibility", "collection 'Bounce' (Indirect Only in view layer"
 
 
-def seen_light(bpy):
-    bulb = _lamp(bpy, "Bulb", "POINT")
-    bulb.visible_camera, bulb.data.shadow_soft_size = True, 0.1  # Blender makes a lamp invisible to the camera
-    _lamp(bpy, "Dot", "POINT").visible_camera = True  # of radius 0: nothing to draw, nothing to say
-    _lamp(bpy, "Panel").visible_camera = True  # an area light is drawn: no warning
-    return "ray visibility", "light 'Bulb'"
-
-
 FEATURES = (portal, volume_only, volume_and_surface, world_volume, volume_object, hair_curves, hair_particles,
             point_cloud, light_linking, shadow_linking, shadow_catcher, holdout_object, holdout_collection,
-            holdout_shader, motion_blur, depth_of_field, ray_visibility, indirect_only, seen_light)
+            holdout_shader, motion_blur, depth_of_field, ray_visibility, indirect_only)
 
 
 @pytest.mark.parametrize("feature", FEATURES, ids=[f.__name__ for f in FEATURES])

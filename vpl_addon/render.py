@@ -314,7 +314,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     guide_normal[kind, pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
                     guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
-            lamps = gbuf.lamps()  # the area lights the camera sees
+            lamps = gbuf.lamps()  # the lights the camera sees
             images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission) + lamps
             images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
             if need_background:

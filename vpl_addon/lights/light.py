@@ -20,7 +20,7 @@ class Light:
     name: str
     distant = False  # no position (the sun): the light tree keeps it beside its nodes
     planar = False  # emits from a plane through its bounds' centre, to the side its orientation's axis points to
-    visible = False  # camera rays see it (Cycles' Ray Visibility > Camera); area lights draw (``paths.gbuffer``)
+    visible = False  # camera rays see it (Cycles' Ray Visibility > Camera): ``seen`` draws it (``paths.gbuffer``)
 
     @property
     def is_active(self) -> bool:
@@ -69,6 +69,13 @@ class Light:
         the solid-angle pdf of ``sample_incident`` choosing w (P,)), radiance and pdf 0 where the ray misses it.
         None for a light that cannot say: its samples keep their full weight and lobe samples ignore it."""
         return None
+
+    def seen(self, origins: np.ndarray, dirs: np.ndarray):
+        """What camera rays from ``origins`` along unit ``dirs`` see of the light: (distance (N,), emitted radiance
+        (N,3)), 0 where a ray misses it; an infinite distance for a light at infinity. None for a light with
+        nothing to show (a point light of radius 0). By default what ``mis`` finds."""
+        found = self.mis(origins, dirs, dirs)
+        return None if found is None else found[:2]
 
     def emit(self, count, rng, center, radius):
         raise NotImplementedError

@@ -75,6 +75,26 @@ class PointLight(Light):
         wi, dist, factor = _round_light_sample(p, self.position, self.radius, self.soft_falloff, u1, u2)
         return wi, dist, (factor * self.attenuation(-wi))[:, None] * self.intensity
 
+    def seen(self, origins, dirs):
+        """As Cycles draws a point or spot light the camera sees (measured): of radiance I / (pi R^2) times the
+        spot's cone toward the ray, a sphere of radius R, or with soft falloff a disc of radius R facing the ray's
+        origin."""
+        if self.radius <= 0.0:
+            return None
+        to_c = self.position - origins
+        b = dot(dirs, to_c)
+        d2 = dot(to_c, to_c)
+        r2 = self.radius * self.radius
+        if self.soft_falloff:  # the facing disc's plane through the centre, normal to the centre's direction
+            t = d2 / np.where(b > 0.0, b, 1.0)
+            hit = (b > 0.0) & (t * t - d2 <= r2)  # |q - c|^2 = t^2 - d^2 on that plane
+        else:
+            near = b - np.sqrt(np.maximum(b * b - d2 + r2, 0.0))
+            t = np.where(near > 0.0, near, b + np.sqrt(np.maximum(b * b - d2 + r2, 0.0)))  # inside: the far side
+            hit = (b * b - d2 + r2 >= 0.0) & (t > 0.0)
+        radiance = (self.attenuation(-dirs) / (np.pi * r2))[:, None] * self.intensity
+        return np.where(hit, t, 0.0), np.where(hit[:, None], radiance, 0.0)
+
     def emit(self, count, rng, center, radius):
         if self.radius > 0.0:  # a uniformly emitting sphere: point on it, cosine direction outward
             normal = uniform_sphere(rng.random(count), rng.random(count))

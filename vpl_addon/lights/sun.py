@@ -47,6 +47,16 @@ class SunLight(Light):
         scale = 2.0 * one_minus_cos / np.sin(half) ** 2
         return wi, np.full(count, np.inf), np.broadcast_to(self.strength * scale, (count, 3)).copy()
 
+    def seen(self, origins, dirs):
+        """The sun's disc as Cycles draws it where the camera sees the sky: radiance S / (pi sin^2 half), at an
+        infinite distance (measured); None for a sun of angle 0."""
+        half = 0.5 * self.angle
+        if half <= 1e-6:
+            return None
+        inside = -dot(dirs, self.direction) >= np.cos(half)
+        radiance = self.strength / (np.pi * np.sin(half) ** 2)
+        return np.where(inside, np.inf, 0.0), np.where(inside[:, None], radiance, 0.0)
+
     def emit(self, count, rng, center, radius):
         half = 0.5 * self.angle
         axis = np.broadcast_to(self.direction, (count, 3))

@@ -4,8 +4,9 @@ For a block of pixels it traces ``spp`` primary rays per pixel (stratified sub-p
 filter, see ``core.camera``) and keeps the ``Surface`` of the samples that hit, and the directions of those that miss.
 Passes are formed by ``splat``: the mean over a pixel's samples, misses counting as zero, exactly like Cycles' film
 with a transparent background; ``background`` is the other share of the pixel, what its missing samples see of the
-world (Cycles' Environment pass). An area light the camera sees (``Light.visible``) adds its radiance to what its
-samples see behind it, as in Cycles (``lamps``).
+world (Cycles' Environment pass). A light the camera sees (``Light.visible``: an area light, a point or spot
+light's sphere or disc, the sun's disc in the sky) adds its radiance to what its samples see behind it, as in
+Cycles (``lamps``).
 """
 from __future__ import annotations
 
@@ -19,8 +20,9 @@ from ..materials.surface import Surface, shade
 
 def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None):
     """The unit directions of the camera's rays through image positions (px, py) and what they hit between the clip
-    distances; given ``lights`` (a list), also (N,3) the radiance of the visible area lights each ray meets before its
-    surface. As in Cycles, a light the camera sees adds its light to what is behind it and hides nothing."""
+    distances; given ``lights`` (a list), also (N,3) the radiance of the visible lights each ray meets before its
+    surface (``Light.seen``). As in Cycles, a light the camera sees adds its light to what is behind it and hides
+    nothing."""
     origins, dirs, near = cam.rays(px, py)
     origins = origins + dirs * near[:, None]
     tmax = np.maximum(cam.clip_end - near, 0.0)
@@ -29,8 +31,11 @@ def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None):
         return dirs, hits
     lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, tmax)
     for light in lights:
-        t, radiance, _ = light.mis(origins, dirs, dirs)
-        seen = (t > 0.0) & (t < far)
+        found = light.seen(origins, dirs)
+        if found is None:
+            continue
+        t, radiance = found
+        seen = (t > 0.0) & ((t < far) | (np.isinf(t) & ~hits.hit))  # a sun where the ray reaches the sky
         lamp[seen] += radiance[seen]
     return dirs, hits, lamp
 
@@ -83,7 +88,7 @@ class GBuffer:
                          len(self.pixels)) / self.spp
 
     def lamps(self) -> np.ndarray:
-        """(P,3) per-pixel mean of the radiance the camera sees of visible area lights (on top of what their samples
+        """(P,3) per-pixel mean of the radiance the camera sees of visible lights (on top of what their samples
         see behind them)."""
         return group_sum(self.on_lamp // self.spp, self.lamp_radiance, len(self.pixels)) / self.spp
 
