@@ -13,35 +13,43 @@ from conftest import add_mesh, add_sun, camera_and_black_world, run_cli
 pytestmark = pytest.mark.blender
 
 
-def ramp_blend(tmp_path, colorspace):
-    """A 2 x 1 image (black, white) in ``colorspace`` stretched over a plane the camera sees whole: 64 pixels
-    across, the blend between the two texel centres over the middle 32."""
+def plane_blend(tmp_path, name, size, colour):
+    """A plane with UVs 0-1 that an orthographic camera sees whole (``size`` pixels), lit by a sun; its material's
+    Base Color comes from the output ``colour(bpy, nodes, links)`` returns."""
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
-    scene.render.resolution_x, scene.render.resolution_y = 64, 4
+    scene.render.resolution_x, scene.render.resolution_y = size
     plane = add_mesh(bpy, "Plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)])
     layer = plane.data.uv_layers.new(name="UVMap")
     for loop, uv in zip(plane.data.loops, ((0, 0), (1, 0), (1, 1), (0, 1))):
         layer.data[loop.index].uv = uv
-    image = bpy.data.images.new("Ramp", 2, 1, alpha=False)
-    image.colorspace_settings.name = colorspace
-    image.pixels.foreach_set(np.array([0, 0, 0, 1, 1, 1, 1, 1], np.float32))
-    image.pack()
-    mat = bpy.data.materials.new("Ramp")
+    mat = bpy.data.materials.new(name)
     if mat.node_tree is None:  # Blender < 5.0
         mat.use_nodes = True
-    nodes = mat.node_tree.nodes
-    tex = nodes.new("ShaderNodeTexImage")
-    tex.image, tex.interpolation, tex.extension = image, "Linear", "EXTEND"
-    mat.node_tree.links.new(tex.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
+    nodes, links = mat.node_tree.nodes, mat.node_tree.links
+    links.new(colour(bpy, nodes, links), nodes["Principled BSDF"].inputs["Base Color"])
     plane.data.materials.append(mat)
     add_sun(bpy, scene, (0.0, 0.0, 0.0), energy=1.0)
     camera_and_black_world(bpy, scene, (0.0, 0.0, 5.0))
     scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
-    path = tmp_path / f"ramp_{colorspace.replace(' ', '_')}.blend"
+    path = tmp_path / f"{name}.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return path
+
+
+def ramp_blend(tmp_path, colorspace):
+    """A 2 x 1 image (black, white) in ``colorspace`` stretched over the plane: 64 pixels across, the blend
+    between the two texel centres over the middle 32."""
+    def ramp(bpy, nodes, links):
+        image = bpy.data.images.new("Ramp", 2, 1, alpha=False)
+        image.colorspace_settings.name = colorspace
+        image.pixels.foreach_set(np.array([0, 0, 0, 1, 1, 1, 1, 1], np.float32))
+        image.pack()
+        tex = nodes.new("ShaderNodeTexImage")
+        tex.image, tex.interpolation, tex.extension = image, "Linear", "EXTEND"
+        return tex.outputs["Color"]
+    return plane_blend(tmp_path, f"ramp_{colorspace.replace(' ', '_')}", (64, 4), ramp)
 
 
 @pytest.mark.parametrize("colorspace", ["sRGB", "Non-Color"])
@@ -62,42 +70,25 @@ def test_an_8_bit_image_blends_its_texels_as_cycles_does(ext, tmp_path, colorspa
 
 
 def checker_blend(tmp_path, mapped):
-    """A plane the camera sees whole (UVs 0-1) coloured by a Checker Texture of UV coordinates, straight (Scale 4)
-    or through a Mapping node (moved, turned about z, scaled unevenly, and lifted in z by 0.4 so that the pattern's
-    colours swap) with Scale 3."""
-    import bpy
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.render.resolution_x = scene.render.resolution_y = 48
-    plane = add_mesh(bpy, "Plane", [(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], [(0, 1, 2, 3)])
-    layer = plane.data.uv_layers.new(name="UVMap")
-    for loop, uv in zip(plane.data.loops, ((0, 0), (1, 0), (1, 1), (0, 1))):
-        layer.data[loop.index].uv = uv
-    mat = bpy.data.materials.new("Checker")
-    if mat.node_tree is None:  # Blender < 5.0
-        mat.use_nodes = True
-    nodes, links = mat.node_tree.nodes, mat.node_tree.links
-    checker = nodes.new("ShaderNodeTexChecker")
-    checker.inputs["Color1"].default_value = (0.9, 0.5, 0.1, 1.0)
-    checker.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
-    vector = nodes.new("ShaderNodeTexCoord").outputs["UV"]
-    if mapped:
-        mapping = nodes.new("ShaderNodeMapping")
-        mapping.inputs["Location"].default_value = (0.1, 0.2, 0.4)
-        mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.5)
-        mapping.inputs["Scale"].default_value = (1.5, 2.0, 1.0)
-        links.new(vector, mapping.inputs["Vector"])
-        vector = mapping.outputs["Vector"]
-    checker.inputs["Scale"].default_value = 3.0 if mapped else 4.0
-    links.new(vector, checker.inputs["Vector"])
-    links.new(checker.outputs["Color"], nodes["Principled BSDF"].inputs["Base Color"])
-    plane.data.materials.append(mat)
-    add_sun(bpy, scene, (0.0, 0.0, 0.0), energy=1.0)
-    camera_and_black_world(bpy, scene, (0.0, 0.0, 5.0))
-    scene.camera.data.type, scene.camera.data.ortho_scale = "ORTHO", 2.0
-    path = tmp_path / f"checker_{mapped}.blend"
-    bpy.ops.wm.save_as_mainfile(filepath=str(path))
-    return path
+    """The plane coloured by a Checker Texture of UV coordinates, straight (Scale 4) or through a Mapping node
+    (moved, turned about z, scaled unevenly, and lifted in z by 0.4 so that the pattern's colours swap) with Scale
+    3; 48 x 48 pixels."""
+    def checker(bpy, nodes, links):
+        node = nodes.new("ShaderNodeTexChecker")
+        node.inputs["Color1"].default_value = (0.9, 0.5, 0.1, 1.0)
+        node.inputs["Color2"].default_value = (0.05, 0.2, 0.6, 1.0)
+        node.inputs["Scale"].default_value = 3.0 if mapped else 4.0
+        vector = nodes.new("ShaderNodeTexCoord").outputs["UV"]
+        if mapped:
+            mapping = nodes.new("ShaderNodeMapping")
+            mapping.inputs["Location"].default_value = (0.1, 0.2, 0.4)
+            mapping.inputs["Rotation"].default_value = (0.0, 0.0, 0.5)
+            mapping.inputs["Scale"].default_value = (1.5, 2.0, 1.0)
+            links.new(vector, mapping.inputs["Vector"])
+            vector = mapping.outputs["Vector"]
+        links.new(vector, node.inputs["Vector"])
+        return node.outputs["Color"]
+    return plane_blend(tmp_path, f"checker_{mapped}", (48, 48), checker)
 
 
 @pytest.mark.parametrize("mapped", [False, True])
