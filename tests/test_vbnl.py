@@ -148,10 +148,11 @@ def box_lights(count, rng):
 
 
 def points_near_box_faces(count, rng):
-    """Points on the cube's faces, up to 2 mm off them, and their inward normals (the first 100 flipped)."""
+    """Points on the cube's faces, up to 0.5 mm off them (inside and outside the slabs of ``box_lights``' lights,
+    0.25 to 1 mm at ``SLAB`` 0.005), and their inward normals (the first 100 flipped)."""
     face = rng.integers(0, 6, count)
     points = rng.random((count, 3))
-    points[np.arange(count), face // 2] = face % 2 + (rng.random(count) - 0.5) * 0.004
+    points[np.arange(count), face // 2] = face % 2 + (rng.random(count) - 0.5) * 0.001
     normals = np.zeros((count, 3))
     normals[np.arange(count), face // 2] = 1 - 2 * (face % 2)
     normals[:100] *= -1

@@ -33,10 +33,12 @@ import numpy as np
 from ...core.compiled import kernel
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
-SLAB = 0.02  # a light covers points within this many radii of its tangent plane: no share across thin walls
+SLAB = 0.005  # a light covers points within this many radii of its tangent plane: no share across thin walls
 # (0.1 still let rugs, sills and frames a few centimetres off a floor or wall share lights: with the same constant
-# world in both renderers the living room was 1.27x Cycles' mean at 0.1, 1.23x at 0.05, 1.08x at 0.02; the flat
-# example scenes are unchanged and the sphere of cornell_textured within noise)
+# world in both renderers the living room was 1.27x Cycles' mean at 0.1, 1.23x at 0.05, 1.08x at 0.02; against a
+# 16384-spp reference its Diffuse Indirect x colour was 1.089x at 0.02, 1.050x at 0.005, and its denoised picture
+# at 64 pairs 0.0907 -> 0.0786 for 32 % more time (more of it extends its paths); the Cornell boxes, the sphere of
+# cornell_textured and the other converted scenes the same or up to 3 % better: bench/README.md)
 CELL = 1.0  # the grid's cell, in median light radii (about 10 lights listed per cell at alpha = 2)
 LISTED = 64  # at most this many cell entries per light on average: the cell grows for lights of very unequal size
 SORTED_FROM = 32768  # lights from which photons are split a million at a time in the order of grid blocks
