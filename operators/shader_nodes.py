@@ -367,8 +367,8 @@ class MaterialTable:
             if checker is None:
                 return unsupported(node, " (only constant colours and scale, on UVs mapped within their plane)")
             texels, uv = checker
-            index, extension, closest, srgb = self._texture(("checker", texels.tobytes()), texels), "REPEAT", \
-                True, False
+            index = self._texture(("checker", texels.tobytes()), texels)
+            extension, closest, srgb = "REPEAT", True, False
             self._image_names.append(node.name)
         else:
             extension = node.extension if node.extension in ("REPEAT", "EXTEND", "CLIP") else "REPEAT"
@@ -378,8 +378,8 @@ class MaterialTable:
             index = self._image(node.image, material, alpha=channel == 3)
             if index is None:
                 return None
-            uv, closest, srgb = (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1]), node.interpolation == "Closest", \
-                self.encoded[index]
+            uv = (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1])
+            closest, srgb = node.interpolation == "Closest", self.encoded[index]
             self._image_names.append(node.image.name)
         self._uv_names.append(uv_name)
         if attribute is not None:

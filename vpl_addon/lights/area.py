@@ -125,9 +125,14 @@ class AreaLight(Light):
                            lambertian, np.tan(h), norm, wi, dist, weight)
         return wi, dist, weight
 
-    def mis(self, p, n, w):
-        """The ray meets the light's plane in front of its emitting side and inside it; the pdf is the spherical
-        rectangle's 1 / solid angle, or for a disk the area sampling's d^2 / (cos A)."""
+    def seen(self, origins, dirs):
+        """What the rays meet of the light (``_met``): their distances and the radiance they see."""
+        t, radiance, _, _ = self._met(origins, dirs)
+        return t, radiance
+
+    def _met(self, p, w):
+        """Where rays from p along w meet the light's plane in front of its emitting side and inside it: (distance,
+        radiance seen, which rays do, the cosine at the light), distance and radiance 0 elsewhere."""
         facing = -dot(w, self.normal)  # cos at the light: it emits along its normal
         t = dot(p - self.center, self.normal) / np.where(facing > 0.0, facing, 1.0)
         q = p + t[:, None] * w - self.center
@@ -136,13 +141,19 @@ class AreaLight(Light):
         inside = 4.0 * (a * a + b * b) <= 1.0 if self.round else (np.abs(a) <= 0.5) & (np.abs(b) <= 0.5)
         hit = (facing > 0.0) & (t > 0.0) & inside & np.isfinite(t)
         radiance = np.where(hit[:, None], self.spread_profile(facing)[:, None] * self.radiance, 0.0)
+        return np.where(hit, t, 0.0), radiance, hit, facing
+
+    def mis(self, p, n, w):
+        """``_met``, and the pdf: the spherical rectangle's 1 / solid angle, or for a disk the area sampling's d^2 /
+        (cos A)."""
+        t, radiance, hit, facing = self._met(p, w)
         pdf = np.zeros(len(p))
         if self.round:
             pdf[hit] = t[hit] ** 2 / np.maximum(facing[hit] * self.area, 1e-300)
         else:  # the spherical rectangle's set-up only where the ray finds the light
             solid = self._solid_angles(p[hit])
             pdf[hit] = np.where(solid > 0.0, 1.0 / np.maximum(solid, 1e-300), 0.0)
-        return np.where(hit, t, 0.0), radiance, pdf
+        return t, radiance, pdf
 
     def emit(self, count, rng, center, radius):
         origins = self.sample_points(rng.random(count), rng.random(count))

@@ -73,9 +73,8 @@ class Light:
     def seen(self, origins: np.ndarray, dirs: np.ndarray):
         """What camera rays from ``origins`` along unit ``dirs`` see of the light: (distance (N,), emitted radiance
         (N,3)), 0 where a ray misses it; an infinite distance for a light at infinity. None for a light with
-        nothing to show (a point light of radius 0). By default what ``mis`` finds."""
-        found = self.mis(origins, dirs, dirs)
-        return None if found is None else found[:2]
+        nothing to show (a point light of radius 0, an emissive mesh, which the rays see as geometry)."""
+        return None
 
     def emit(self, count, rng, center, radius):
         raise NotImplementedError

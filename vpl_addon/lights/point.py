@@ -89,9 +89,10 @@ class PointLight(Light):
             t = d2 / np.where(b > 0.0, b, 1.0)
             hit = (b > 0.0) & (t * t - d2 <= r2)  # |q - c|^2 = t^2 - d^2 on that plane
         else:
-            near = b - np.sqrt(np.maximum(b * b - d2 + r2, 0.0))
-            t = np.where(near > 0.0, near, b + np.sqrt(np.maximum(b * b - d2 + r2, 0.0)))  # inside: the far side
-            hit = (b * b - d2 + r2 >= 0.0) & (t > 0.0)
+            disc = b * b - d2 + r2  # the quadratic's discriminant / 4
+            root = np.sqrt(np.maximum(disc, 0.0))
+            t = np.where(b - root > 0.0, b - root, b + root)  # inside the sphere: its far side
+            hit = (disc >= 0.0) & (t > 0.0)
         radiance = (self.attenuation(-dirs) / (np.pi * r2))[:, None] * self.intensity
         return np.where(hit, t, 0.0), np.where(hit[:, None], radiance, 0.0)
 
