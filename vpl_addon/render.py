@@ -34,7 +34,7 @@ from .core import passes as P
 from .core.color import largest
 from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise, available as denoiser_available
 from .core.memory import trim_heap
-from .core.sampling import group_sum, stratified_2d
+from .core.sampling import group_sum, pixel_nets
 from .core.tracer import Tracer
 from .gather.bilateral import deinterleave
 from .gather.summing import GatherSettings, clamp_distance, gather
@@ -263,18 +263,10 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             marks["gbuffer"] = time.perf_counter()
             if need_direct:
                 # the light samples of a pixel: scrambled nets, dealt to its camera samples in random order
-                count = gbuf.spp * settings.light_samples
-                cols = (gbuf.sample % gbuf.spp)[:, None] * settings.light_samples + np.arange(settings.light_samples)
-                rows = (gbuf.sample // gbuf.spp)[:, None]
                 numbers = []
                 for needed in (bool(lights.local), lights.world is not None):  # a net for each kind of light
-                    if not needed:
-                        numbers += [None, None]
-                        continue
-                    u, v = stratified_2d(len(pixels), count, rng)
-                    deal = rng.permuted(np.broadcast_to(np.arange(count), (len(pixels), count)), axis=1)
-                    dealt = deal[rows, cols]  # each camera sample's numbers among its pixel's
-                    numbers += [u[rows, dealt], v[rows, dealt]]
+                    numbers += pixel_nets(gbuf.sample // gbuf.spp, settings.light_samples, rng) if needed else \
+                        [None, None]
                 through = None if glazed is None else np.zeros_like(surf.albedo)
                 direct, glossy = direct_light(surf, lights, tracer, settings.light_samples, rng,
                                               numbers=tuple(numbers), glossy=lobe, through=through)
@@ -288,8 +280,9 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                 if sampled is None:
                     light = summed(sub, None, gbuf.pixel_of_hit[rows], rng)
                 else:
-                    light = sampled(sub if repeats == 1 else surf.take(np.repeat(rows, repeats)), vpls, context,
-                                    settings.placement, rng)
+                    many = np.repeat(rows, repeats)
+                    light = sampled(surf.take(many), vpls, context, settings.placement, rng,
+                                    pixel=gbuf.sample[many] // gbuf.spp)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
                 if lobe is not None:
@@ -299,7 +292,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     else:
                         many = np.repeat(shiny, repeats)
                         reflected = sampled(surf.take(many), vpls, context, settings.placement, rng,
-                                            glossy=lobe.take(many))
+                                            glossy=lobe.take(many),
+                                            pixel=gbuf.sample[many] // gbuf.spp)
                         reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)
                     guard("gather", {P.GLOSSY_INDIRECT: reflected})
                     at = gbuf.sample[shiny] // gbuf.spp

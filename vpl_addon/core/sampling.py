@@ -171,6 +171,35 @@ def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[
     return u + jitter[..., 0], v + jitter[..., 1]
 
 
+def pixel_nets(pixel: np.ndarray, per_row: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """(u, v), each (R, per_row): 2D numbers for R rows (sample points) of the pixels ``pixel`` (R,). The rows of a
+    pixel share one scrambled Sobol net (``stratified_2d``) of the next power of two at or above the most numbers a
+    pixel asks for, dealt to them in random order: a pixel's numbers cover the square evenly, while a row's numbers,
+    and the numbers of two nets drawn for the same rows, stay independent of each other (Cycles pads its dimensions
+    in pairs the same way). A pixel with fewer rows takes a random part of its net."""
+    if len(pixel) == 0:
+        return np.zeros((0, per_row)), np.zeros((0, per_row))
+    order = np.argsort(pixel, kind="stable")
+    ordered = pixel[order]
+    rank = np.empty(len(pixel), np.int64)
+    rank[order] = np.arange(len(pixel)) - np.searchsorted(ordered, ordered)
+    group = np.empty(len(pixel), np.int64)
+    group[order] = np.cumsum(np.r_[0, ordered[1:] != ordered[:-1]])
+    count = 1 << int(rank.max() * per_row + per_row - 1).bit_length()
+    u, v = stratified_2d(int(group.max()) + 1, count, rng)
+    deal = rng.permuted(np.broadcast_to(np.arange(count), u.shape), axis=1)
+    dealt = deal[group[:, None], rank[:, None] * per_row + np.arange(per_row)]
+    return u[group[:, None], dealt], v[group[:, None], dealt]
+
+
+def pixel_numbers(count: int, pixel: np.ndarray | None, rng: np.random.Generator, rows: int = 0) -> np.ndarray:
+    """(count, R) uniform numbers for R sample points of the pixels ``pixel`` (R,), two by two from ``pixel_nets``;
+    independent ones for ``rows`` points if ``pixel`` is None."""
+    if pixel is None:
+        return rng.random((count, rows))
+    return np.concatenate([np.stack(pixel_nets(pixel, 1, rng))[:, :, 0] for _ in range((count + 1) // 2)])[:count]
+
+
 class LatinHypercube:
     """A stand-in for ``np.random.Generator.random`` whose every call of n numbers puts one in each of n equal
     strata (in random order): Latin hypercube sampling across the rows of a batch. Light paths drawn with it

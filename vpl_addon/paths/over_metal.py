@@ -54,7 +54,7 @@ def over_metal(surface: Surface, lobe: GlossyLobe | None, scene, tracer, lights,
     for step in range(1, min(CHAIN, max_bounces) + 1):
         following = []
         for v in level:
-            dirs, sampled, pdf = v.sample(rng)
+            dirs, sampled, pdf = v.sample(rng.random((2, len(v))))
             y, at = bounce(scene, tracer, v.point, dirs)
             owner = v.owner[at]
             carried = v.throughput[at] * np.where((pdf[at] > 0.0)[:, None], sampled[at], 0.0)

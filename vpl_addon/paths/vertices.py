@@ -41,14 +41,14 @@ class PathVertices:
             return np.repeat((cos * bump_factor(ns, self.point.smooth_normal[rows], w))[:, None], 3, axis=1), cos
         return self.lobe.evaluate(w, rows)
 
-    def sample(self, rng):
-        """(directions (K,3), f cos / pdf (K,3), pdf (K,)) of the lobe's own sampling."""
-        k = len(self.owner)
+    def sample(self, u):
+        """(directions (K,3), f cos / pdf (K,3), pdf (K,)) of the lobe's own sampling with the uniform numbers
+        ``u`` (2, K)."""
         if self.lobe is None:
             ns = self.point.shading_normal
-            w, cos = cosine_hemisphere(rng.random(k), rng.random(k), ns)
+            w, cos = cosine_hemisphere(u[0], u[1], ns)
             return w, np.repeat(bump_factor(ns, self.point.smooth_normal, w)[:, None], 3, axis=1), cos / np.pi
-        return self.lobe.sample(rng.random(k), rng.random(k), np.arange(k))
+        return self.lobe.sample(u[0], u[1], np.arange(len(self.owner)))
 
 
 def merged(vertices: list[PathVertices]) -> list[PathVertices]:

@@ -284,6 +284,6 @@ def gather_samples(settings) -> int:
     return settings.vbnl.sampling.samples
 
 
-def gather(surface, lights, context, settings, rng, glossy=None):
+def gather(surface, lights, context, settings, rng, glossy=None, pixel=None):
     return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
-                                         settings.vbnl.sampling, context.max_bounces, glossy)
+                                         settings.vbnl.sampling, context.max_bounces, glossy, pixel)

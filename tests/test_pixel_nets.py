@@ -1,0 +1,56 @@
+"""The numbers a pixel's samples share (``core.sampling.pixel_nets``): one scrambled Sobol net per pixel, dealt to
+its rows in random order, whatever order the rows come in."""
+import numpy as np
+import pytest
+
+from vpl_addon.core.sampling import pixel_nets, pixel_numbers
+
+
+def _by_pixel(pixel, *arrays):
+    order = np.argsort(pixel, kind="stable")
+    return [a[order] for a in arrays]
+
+
+def test_each_pixel_holds_a_net_whatever_the_rows_order():
+    """16 rows a pixel in shuffled order: each pixel's 16 points put one in every elementary box of area 1/16
+    (16 x 1, 8 x 2, 4 x 4, 2 x 8, 1 x 16), independent numbers would not."""
+    rng = np.random.default_rng(1)
+    pixel = rng.permutation(np.repeat(np.arange(200), 16))
+    u, v = _by_pixel(pixel, *pixel_nets(pixel, 1, rng))
+    u, v = u.reshape(200, 16), v.reshape(200, 16)
+    assert np.all((u >= 0.0) & (u < 1.0) & (v >= 0.0) & (v < 1.0))
+    for columns in (1, 2, 4, 8, 16):
+        box = (u * columns).astype(int) * (16 // columns) + (v * (16 // columns)).astype(int)
+        assert np.all(np.sort(box, axis=1) == np.arange(16))
+    free = rng.random((200, 16))
+    assert not np.all(np.sort((free * 16).astype(int), axis=1) == np.arange(16))
+
+
+def test_nets_of_the_same_rows_are_independent_and_a_row_may_take_several():
+    """Two nets for the same rows are uncorrelated, and a row's two numbers of one net as little as two of a
+    pixel's 16 strata drawn without replacement (-1/15); a pixel's rows x per_row numbers are its net (8 rows x 2);
+    a pixel with fewer rows takes distinct points of it."""
+    rng = np.random.default_rng(2)
+    pixel = np.repeat(np.arange(4000), 8)
+    (u, _), (w, _) = pixel_nets(pixel, 1, rng), pixel_nets(pixel, 1, rng)
+    assert abs(np.corrcoef(u[:, 0], w[:, 0])[0, 1]) < 0.03
+    u, v = pixel_nets(pixel, 2, rng)
+    assert u.shape == (len(pixel), 2)
+    assert np.corrcoef(u[:, 0], u[:, 1])[0, 1] == pytest.approx(-1 / 15, abs=0.03)
+    assert np.all(np.sort((u.reshape(4000, 16) * 16).astype(int), axis=1) == np.arange(16))
+    short = np.r_[np.zeros(8, int), np.ones(3, int)]  # pixel 1 has 3 rows of a net of 8
+    u, _ = pixel_nets(short, 1, rng)
+    assert len(np.unique((u[8:, 0] * 8).astype(int))) == 3
+
+
+def test_pixel_numbers_come_in_pairs_of_one_net_or_free_without_pixels():
+    rng = np.random.default_rng(3)
+    pixel = np.repeat(np.arange(100), 4)
+    numbers = pixel_numbers(5, pixel, rng)
+    assert numbers.shape == (5, 400)
+    for first in (0, 2):  # dimensions (0, 1) and (2, 3): each pixel's 4 points one in each 2 x 2 box
+        box = (numbers[first] * 2).astype(int) * 2 + (numbers[first + 1] * 2).astype(int)
+        assert np.all(np.sort(box.reshape(100, 4), axis=1) == np.arange(4))
+    assert np.all(np.sort((numbers[4] * 4).astype(int).reshape(100, 4), axis=1) == np.arange(4))
+    assert pixel_numbers(3, None, rng, 7).shape == (3, 7)
+    assert pixel_nets(np.zeros(0, int), 2, rng)[0].shape == (0, 2)
