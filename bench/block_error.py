@@ -11,16 +11,10 @@ import argparse
 import os
 import sys
 
-import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 from vpl_addon.core.exr import read_passes  # noqa: E402
-from vpl_addon.evaluation.metrics import FULL_COVERAGE, errors  # noqa: E402
-
-
-def blocks(x: np.ndarray, k: int) -> np.ndarray:
-    h, w = x.shape[:2]
-    return x[:h // k * k, :w // k * k].reshape(h // k, k, w // k, k, -1).mean(axis=(1, 3))
+from vpl_addon.evaluation.metrics import FULL_COVERAGE, block_means as blocks, errors  # noqa: E402
 
 
 def main(argv=None) -> int:

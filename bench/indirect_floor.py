@@ -19,6 +19,7 @@ import numpy as np
 
 from sample_counts import blend_path
 from vbnl_stages import load_scene, register_extension
+from vpl_addon.evaluation.metrics import block_means  # noqa: E402 (vbnl_stages puts the project on the path)
 
 
 def _ints(text: str) -> list[int]:
@@ -36,8 +37,7 @@ def indirect(passes: dict) -> np.ndarray:
 
 def blocks(image: np.ndarray, k: int) -> np.ndarray:
     """(H/k, W/k) means of an (H,W,3) image's RGB over k x k blocks (the edge rows and columns left over dropped)."""
-    h, w = image.shape[0] // k * k, image.shape[1] // k * k
-    return image[:h, :w, :3].reshape(h // k, k, w // k, k, 3).mean(axis=(1, 3, 4))
+    return block_means(image[..., :3], k).mean(axis=-1)
 
 
 def block_error(image: np.ndarray, reference: np.ndarray, k: int) -> float:

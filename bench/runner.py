@@ -181,7 +181,7 @@ class Run:
 
 
 STAGES = ("build", "place", "gbuffer", "direct", "gather", "filter")
-METRICS = ("rmae", "relmse", "rmse_reinhard", "mean_ratio")
+METRICS = ("rmae", "relmse", "rmse_reinhard", "mean_ratio", "rmae4")
 COLUMNS = ("scene", "width", "height", "method", "knob", "budget", "seed", "pass", "wall_s", "extract_s",
            *(f"{s}_s" for s in STAGES), "rays", "peak_rss_mb", "run_rss_mb", *METRICS)
 
@@ -512,7 +512,7 @@ class Bench:
     def report(self, label: str, w: int, h: int, runs: list[Run]) -> None:
         curves = curves_of(runs)
         C.plot(os.path.join(self.o.out_dir, f"{label}.png"), f"{label} ({w}x{h})", curves)
-        lines = headline(label, curves)
+        lines = headline(label, curves) + headline(label, curves_of(runs, "rmae4"), "rmae4")
         self.summary += lines
         for line in lines:
             self.say(line)
@@ -534,44 +534,47 @@ class Bench:
         return self.summary
 
 
-def curves_of(runs: list[Run]) -> dict[str, dict[str, C.Curve]]:
-    """Compared pass -> method -> curve."""
+def curves_of(runs: list[Run], metric: str = "rmae") -> dict[str, dict[str, C.Curve]]:
+    """Compared pass -> method -> curve of ``metric``."""
     panels: dict[str, dict[str, C.Curve]] = {}
     for name in COMPARED:
         for method in dict.fromkeys(r.method for r in runs):
             mine = [r for r in runs if r.method == method and name in r.errors]
             if mine:
                 panels.setdefault(name, {})[method] = C.Curve.of([r.wall for r in mine],
-                                                                 [r.errors[name]["rmae"] for r in mine],
+                                                                 [r.errors[name][metric] for r in mine],
                                                                  [r.budget for r in mine])
     return panels
 
 
-def headline(label: str, panels: dict[str, dict[str, C.Curve]]) -> list[str]:
+def headline(label: str, panels: dict[str, dict[str, C.Curve]], metric: str = "rmae") -> list[str]:
     """The two headline numbers against Cycles on Diffuse Indirect, and the same against Cycles + OIDN on
-    Combined (where the undenoised and the denoised engine methods compete)."""
+    Combined (where the undenoised and the denoised engine methods compete); for ``metric`` "rmae4" (rMAE of 4 x 4
+    blocks, which a reference's own noise disturbs less) the Combined ones only."""
     lines = []
-    for name, rival in ((P.DIFFUSE_INDIRECT, CYCLES), (P.COMBINED, OIDN)):
+    rmae = "rMAE" if metric == "rmae" else "block rMAE"
+    for name, rival in ((P.DIFFUSE_INDIRECT, CYCLES), (P.COMBINED, OIDN))[0 if metric == "rmae" else 1:]:
         curves = panels.get(name, {})
         ours = {m: c for m, c in curves.items() if m not in (CYCLES, OIDN)}
         if rival not in curves or not ours:
             continue
-        lines.append(f"{label}, {name}, against {rival}:")
+        lines.append(f"{label}, {name}, against {rival}" + (":" if metric == "rmae" else ", rMAE of 4 x 4 blocks:"))
         for seconds in HEADLINE_SECONDS:
             eq = C.equal_time(ours, curves[rival], seconds)
             if eq.best is None:
                 lines.append(f"  equal time {seconds:g} s: n/a (no method's runs span {seconds:g} s: {spans(ours)})")
             elif eq.cycles_error.value is None:
-                lines.append(f"  equal time {seconds:g} s: {eq.best} rMAE {eq.best_error.value:.4f}; {rival} "
+                lines.append(f"  equal time {seconds:g} s: {eq.best} {rmae} {eq.best_error.value:.4f}; {rival} "
                              f"{eq.cycles_error.note}")
             else:
-                lines.append(f"  equal time {seconds:g} s: {rival} rMAE {eq.cycles_error.value:.4f} / {eq.best} "
+                lines.append(f"  equal time {seconds:g} s: {rival} {rmae} {eq.cycles_error.value:.4f} / {eq.best} "
                              f"{eq.best_error.value:.4f} = {eq.ratio:.2f}x")
         each = []
         for m, c in ours.items():
             ratios = [C.equal_time({m: c}, curves[rival], t).ratio for t in HEADLINE_SECONDS]
             each.append(f"{m} " + " / ".join("n/a" if r is None else f"{r:.2f}x" for r in ratios))
-        lines.append(f"  each method, {rival} rMAE / its rMAE at {' / '.join(f'{t:g} s' for t in HEADLINE_SECONDS)}: "
+        times = " / ".join(f"{t:g} s" for t in HEADLINE_SECONDS)
+        lines.append(f"  each method, {rival} {rmae} / its {rmae} at {times}: "
                      + ", ".join(each))
         ee = C.equal_error(ours, curves[rival], EQUAL_ERROR_SECONDS)
         if ee.best is None:
@@ -581,7 +584,7 @@ def headline(label: str, panels: dict[str, dict[str, C.Curve]]) -> list[str]:
         else:
             how = f" ({ee.cycles_time.note})" if ee.cycles_time.note else ""
             lines.append(f"  equal error: {rival} needs {ee.cycles_time.value:.1f} s{how} to reach {ee.best}'s "
-                         f"{ee.seconds:g} s rMAE {ee.target.value:.4f}: speed-up {ee.speedup:.2f}x")
+                         f"{ee.seconds:g} s {rmae} {ee.target.value:.4f}: speed-up {ee.speedup:.2f}x")
     return lines
 
 

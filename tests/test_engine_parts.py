@@ -144,6 +144,23 @@ def test_metrics_on_known_images():
     assert errors(ref, ref)["rmae"] == 0.0
 
 
+def test_block_rmae_forgives_a_checkerboard_of_noise_but_not_a_bias_and_keeps_to_whole_blocks():
+    """rmae4: a +-10 % checkerboard averages out in 4 x 4 blocks, a +10 % bias does not; a block the mask cuts is
+    left out, and an image smaller than a block falls back to the pixels' rMAE."""
+    ref = np.ones((8, 12, 3))
+    checker = ref * (1.0 + 0.1 * ((np.indices((8, 12)).sum(axis=0) % 2) * 2 - 1))[..., None]
+    assert errors(checker, ref)["rmae"] == pytest.approx(0.1 / 1.01)
+    assert errors(checker, ref)["rmae4"] == pytest.approx(0.0, abs=1e-12)
+    assert errors(ref * 1.1, ref)["rmae4"] == pytest.approx(0.1 / 1.01)
+    img = ref.copy()
+    img[0, 0] = 100.0
+    mask = np.ones((8, 12), bool)
+    mask[0, 0] = False  # the first block is not whole: left out
+    assert errors(img, ref, mask)["rmae4"] == 0.0 and errors(img, ref)["rmae4"] > 1.0
+    small = errors(ref[:2, :2] * 1.1, ref[:2, :2])
+    assert small["rmae4"] == small["rmae"]
+
+
 def test_metrics_ignore_pixels_the_reference_does_not_cover_fully():
     ref = np.ones((2, 2, 3))
     img = ref.copy()
