@@ -5,6 +5,8 @@ estimator (a pdf or a frame); they are used by the light sampler, the camera and
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from .compiled import inline, kernel
@@ -137,6 +139,14 @@ def sample_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
     return np.minimum(np.searchsorted(cdf, u, side="right"), len(cdf) - 1)
 
 
+@functools.cache
+def _sobol_net(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """The first ``count`` points of ``_sobol_02`` as 32-bit integers (read only)."""
+    x, y = (a.astype(np.uint32) for a in _sobol_02(np.arange(count)))
+    x.flags.writeable = y.flags.writeable = False
+    return x, y
+
+
 def _sobol_02(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The first two dimensions of Sobol's sequence as 32-bit integers: van der Corput (bit reversal) and the
     Pascal-matrix dimension. Any 2^m consecutive-from-zero points form a (0, m, 2)-net."""
@@ -162,13 +172,11 @@ def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[
     """
     if per_cell & (per_cell - 1):
         return rng.random((count, per_cell)), rng.random((count, per_cell))
-    x, y = _sobol_02(np.arange(per_cell))
-    shift = rng.integers(0, 1 << 32, (count, 2), dtype=np.uint64)
+    x, y = _sobol_net(per_cell)
+    shift = rng.integers(0, 1 << 32, (count, 2), dtype=np.uint64).astype(np.uint32)
     scale = 1.0 / 4294967296.0
-    u = (x[None, :] ^ shift[:, :1]).astype(np.float64) * scale
-    v = (y[None, :] ^ shift[:, 1:]).astype(np.float64) * scale
-    jitter = rng.random((count, per_cell, 2)) * scale  # fill the bits below 32
-    return u + jitter[..., 0], v + jitter[..., 1]
+    jitter = rng.random((count, per_cell, 2))  # fills the bits below 32
+    return (x ^ shift[:, :1]) * scale + jitter[..., 0] * scale, (y ^ shift[:, 1:]) * scale + jitter[..., 1] * scale
 
 
 def pixel_nets(pixel: np.ndarray, per_row: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -177,19 +185,7 @@ def pixel_nets(pixel: np.ndarray, per_row: int, rng: np.random.Generator) -> tup
     pixel asks for, dealt to them in random order: a pixel's numbers cover the square evenly, while a row's numbers,
     and the numbers of two nets drawn for the same rows, stay independent of each other (Cycles pads its dimensions
     in pairs the same way). A pixel with fewer rows takes a random part of its net."""
-    if len(pixel) == 0:
-        return np.zeros((0, per_row)), np.zeros((0, per_row))
-    order = np.argsort(pixel, kind="stable")
-    ordered = pixel[order]
-    rank = np.empty(len(pixel), np.int64)
-    rank[order] = np.arange(len(pixel)) - np.searchsorted(ordered, ordered)
-    group = np.empty(len(pixel), np.int64)
-    group[order] = np.cumsum(np.r_[0, ordered[1:] != ordered[:-1]])
-    count = 1 << int(rank.max() * per_row + per_row - 1).bit_length()
-    u, v = stratified_2d(int(group.max()) + 1, count, rng)
-    deal = rng.permuted(np.broadcast_to(np.arange(count), u.shape), axis=1)
-    dealt = deal[group[:, None], rank[:, None] * per_row + np.arange(per_row)]
-    return u[group[:, None], dealt], v[group[:, None], dealt]
+    return _dealt(_ranks(pixel), per_row, rng)
 
 
 def pixel_numbers(count: int, pixel: np.ndarray | None, rng: np.random.Generator, rows: int = 0) -> np.ndarray:
@@ -197,7 +193,33 @@ def pixel_numbers(count: int, pixel: np.ndarray | None, rng: np.random.Generator
     independent ones for ``rows`` points if ``pixel`` is None."""
     if pixel is None:
         return rng.random((count, rows))
-    return np.concatenate([np.stack(pixel_nets(pixel, 1, rng))[:, :, 0] for _ in range((count + 1) // 2)])[:count]
+    ranks = _ranks(pixel)
+    return np.concatenate([np.stack(_dealt(ranks, 1, rng))[:, :, 0] for _ in range((count + 1) // 2)])[:count]
+
+
+def _ranks(pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
+    """(group, rank, groups): each row's pixel numbered 0, 1, ... and its place among that pixel's rows."""
+    order = None if np.all(pixel[1:] >= pixel[:-1]) else np.argsort(pixel, kind="stable")
+    ordered = pixel if order is None else pixel[order]
+    first = np.flatnonzero(np.r_[True, ordered[1:] != ordered[:-1]]) if len(pixel) else np.zeros(0, np.int64)
+    sizes = np.diff(np.r_[first, len(pixel)])
+    group = np.repeat(np.arange(len(first)), sizes)
+    rank = np.arange(len(pixel)) - np.repeat(first, sizes)
+    if order is not None:
+        group[order], rank[order] = group.copy(), rank.copy()
+    return group, rank, len(first)
+
+
+def _dealt(ranks: tuple[np.ndarray, np.ndarray, int], per_row: int, rng: np.random.Generator):
+    """``pixel_nets`` of rows numbered by ``_ranks``."""
+    group, rank, groups = ranks
+    if len(rank) == 0:
+        return np.zeros((0, per_row)), np.zeros((0, per_row))
+    count = 1 << int(rank.max() * per_row + per_row - 1).bit_length()
+    u, v = stratified_2d(groups, count, rng)
+    deal = rng.permuted(np.broadcast_to(np.arange(count), u.shape), axis=1)
+    dealt = deal[group[:, None], rank[:, None] * per_row + np.arange(per_row)]
+    return u[group[:, None], dealt], v[group[:, None], dealt]
 
 
 class LatinHypercube:
