@@ -261,9 +261,10 @@ def test_a_pixels_sample_pairs_from_one_net_each_cut_its_noise():
     surface = surface.take(np.nonzero(~surface.glossy)[0])
     pixel = np.repeat(np.arange(len(surface)), 64)
     sampling = SamplingSettings(n_min=0.5, n_max=3.0)  # some hits extend
+    light_set = LightSet(scene)
     means = {}
     for nets in (True, False):
-        means[nets] = np.array([sampled_gather(surface.take(pixel), lights, scene, tracer, LightSet(scene),
+        means[nets] = np.array([sampled_gather(surface.take(pixel), lights, scene, tracer, light_set,
                                                np.random.default_rng(seed), sampling, 3,
                                                pixel=pixel if nets else None).sum(axis=1).reshape(-1, 64).mean(axis=1)
                                 for seed in range(4)])

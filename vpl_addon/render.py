@@ -281,7 +281,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     light = summed(sub, None, gbuf.pixel_of_hit[rows], rng)
                 else:
                     many = np.repeat(rows, repeats)
-                    light = sampled(surf.take(many), vpls, context, settings.placement, rng,
+                    light = sampled(sub if repeats == 1 else surf.take(many), vpls, context, settings.placement, rng,
                                     pixel=gbuf.sample[many] // gbuf.spp)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})

@@ -122,7 +122,8 @@ def _estimate(v, out, lights, scene, tracer, light_set, rng, settings, radiance,
 
 def _light_directions(point, lights, u, choice, cdf, total_power):
     """Power-based light sampling (eq. 4): per point a light j with probability P_j / sum P, then a point on its
-    disc by its share's profile (``_toward_discs``). Returns (the points whose direction leaves their surface, the
+    disc by its share's profile (``_toward_discs``), with the uniform numbers ``u`` (3, K): the disc's point from
+    rows 0 and 1 (one 2D net), the choice from row 2. Returns (the points whose direction leaves their surface, the
     directions, j, the pdfs p_j(w))."""
     k = len(point)
     if total_power <= 0:
