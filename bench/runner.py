@@ -34,13 +34,13 @@ import numpy as np
 
 from ..operators.extract import ExtractionError, extract
 from ..operators.output import render_to
-from ..operators.reference import configure_cycles, make_reference, reference_hash, stored_info
+from ..operators.reference import SEED, TWIN_SEED, configure_cycles, make_reference, reference_hash, stored_info
 from ..vpl_addon.core import passes as P
 from ..vpl_addon.core import tracer as tracer_module
 from ..vpl_addon.core.exr import read_passes
 from ..vpl_addon.core.memory import status_kb, trim_heap
 from ..vpl_addon.evaluation import convergence as C
-from ..vpl_addon.evaluation.metrics import coverage_mask, errors, pass_mask
+from ..vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors, pass_mask
 from ..vpl_addon.evaluation.subdivision import levels_for, subdivide
 from ..vpl_addon.gather import summing
 from ..vpl_addon.lights.area import AreaLight
@@ -177,11 +177,11 @@ class Run:
                 "extract_s": _num(self.extract), **{f"{s}_s": _num(self.stages.get(s)) for s in STAGES},
                 "rays": "" if self.rays is None else self.rays, "peak_rss_mb": _num(self.peak_mb, 1),
                 "run_rss_mb": _num(self.rise_mb, 1)}
-        return [{**base, "pass": name, **{k: _num(m[k], 6) for k in METRICS}} for name, m in self.errors.items()]
+        return [{**base, "pass": name, **{k: _num(m.get(k), 6) for k in METRICS}} for name, m in self.errors.items()]
 
 
 STAGES = ("build", "place", "gbuffer", "direct", "gather", "filter")
-METRICS = ("rmae", "relmse", "rmse_reinhard", "mean_ratio", "rmae4")
+METRICS = ("rmae", "relmse", "rmse_reinhard", "mean_ratio", "rmae4", "clean_rrmse")  # the last: Combined, with a twin
 COLUMNS = ("scene", "width", "height", "method", "knob", "budget", "seed", "pass", "wall_s", "extract_s",
            *(f"{s}_s" for s in STAGES), "rays", "peak_rss_mb", "run_rss_mb", *METRICS)
 
@@ -224,8 +224,9 @@ def quiet_blender():
 # ---------------------------------------------------------------------------------------------------------------
 # references
 
-def find_reference(blend: str, percentage: int | None, folder: str) -> str | None:
-    """A committed reference of ``blend`` at ``percentage`` in ``folder`` whose hash is current (highest samples)."""
+def find_reference(blend: str, percentage: int | None, folder: str, seed: int = SEED) -> str | None:
+    """A committed reference of ``blend`` at ``percentage`` rendered with Cycles' ``seed`` (``TWIN_SEED``: the
+    twin) in ``folder`` whose hash is current (highest samples)."""
     if not os.path.isdir(folder):
         return None
     found = []
@@ -239,7 +240,7 @@ def find_reference(blend: str, percentage: int | None, folder: str) -> str | Non
             continue
         if info.get("blend") != os.path.basename(blend) or info.get("percentage") != percentage:
             continue
-        if info.get("hash") == reference_hash(blend, info["samples"], info.get("frame"), percentage):
+        if info.get("hash") == reference_hash(blend, info["samples"], info.get("frame"), percentage, seed):
             found.append((info["samples"], path))
     return max(found)[1] if found else None
 
@@ -445,10 +446,15 @@ class Bench:
         ref_alpha = reference[P.COMBINED][..., 3]
         h, w = ref_alpha.shape
         mask = coverage_mask(ref_alpha, (h, w))
-        self.say(f"{label}: {w}x{h}, reference {source}")
+        twin = find_reference(blend, pct, self.o.reference_dir, TWIN_SEED)
+        self.say(f"{label}: {w}x{h}, reference {source}" + (f", twin {os.path.relpath(twin)}" if twin else ""))
+        twin = read_passes(twin)[0][P.COMBINED] if twin else None
 
         def judge(images: dict, passes) -> dict:
-            return {name: errors(images[name], reference[name], pass_mask(name, reference, mask)) for name in passes}
+            found = {name: errors(images[name], reference[name], pass_mask(name, reference, mask)) for name in passes}
+            if twin is not None and P.COMBINED in found:
+                found[P.COMBINED]["clean_rrmse"] = clean_rrmse(images[P.COMBINED], reference[P.COMBINED], twin, mask)
+            return found
 
         runs: list[Run] = []
         engine_methods = [m for m in self.o.methods if engine_method(m)]
@@ -512,7 +518,8 @@ class Bench:
     def report(self, label: str, w: int, h: int, runs: list[Run]) -> None:
         curves = curves_of(runs)
         C.plot(os.path.join(self.o.out_dir, f"{label}.png"), f"{label} ({w}x{h})", curves)
-        lines = headline(label, curves) + headline(label, curves_of(runs, "rmae4"), "rmae4")
+        lines = headline(label, curves) + headline(label, curves_of(runs, "rmae4"), "rmae4") + \
+            headline(label, curves_of(runs, "clean_rrmse"), "clean_rrmse")
         self.summary += lines
         for line in lines:
             self.say(line)
@@ -539,10 +546,10 @@ def curves_of(runs: list[Run], metric: str = "rmae") -> dict[str, dict[str, C.Cu
     panels: dict[str, dict[str, C.Curve]] = {}
     for name in COMPARED:
         for method in dict.fromkeys(r.method for r in runs):
-            mine = [r for r in runs if r.method == method and name in r.errors]
-            if mine:
+            mine = [r for r in runs if r.method == method and metric in r.errors.get(name, {})]
+            if mine:  # a clean_rrmse of 0 (within the references' own noise) kept above 0 for the log-log curves
                 panels.setdefault(name, {})[method] = C.Curve.of([r.wall for r in mine],
-                                                                 [r.errors[name][metric] for r in mine],
+                                                                 [max(r.errors[name][metric], 1e-9) for r in mine],
                                                                  [r.budget for r in mine])
     return panels
 
@@ -550,15 +557,17 @@ def curves_of(runs: list[Run], metric: str = "rmae") -> dict[str, dict[str, C.Cu
 def headline(label: str, panels: dict[str, dict[str, C.Curve]], metric: str = "rmae") -> list[str]:
     """The two headline numbers against Cycles on Diffuse Indirect, and the same against Cycles + OIDN on
     Combined (where the undenoised and the denoised engine methods compete); for ``metric`` "rmae4" (rMAE of 4 x 4
-    blocks, which a reference's own noise disturbs less) the Combined ones only."""
+    blocks, which a reference's own noise disturbs less) and "clean_rrmse" (relative RMSE with the references'
+    own noise taken out, where the scene has a twin reference) the Combined ones only."""
     lines = []
-    rmae = "rMAE" if metric == "rmae" else "block rMAE"
+    rmae, what = {"rmae": ("rMAE", ":"), "rmae4": ("block rMAE", ", rMAE of 4 x 4 blocks:"),
+                  "clean_rrmse": ("clean rRMSE", ", relative RMSE with the references' own noise taken out:")}[metric]
     for name, rival in ((P.DIFFUSE_INDIRECT, CYCLES), (P.COMBINED, OIDN))[0 if metric == "rmae" else 1:]:
         curves = panels.get(name, {})
         ours = {m: c for m, c in curves.items() if m not in (CYCLES, OIDN)}
         if rival not in curves or not ours:
             continue
-        lines.append(f"{label}, {name}, against {rival}" + (":" if metric == "rmae" else ", rMAE of 4 x 4 blocks:"))
+        lines.append(f"{label}, {name}, against {rival}{what}")
         for seconds in HEADLINE_SECONDS:
             eq = C.equal_time(ours, curves[rival], seconds)
             if eq.best is None:

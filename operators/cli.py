@@ -251,13 +251,14 @@ SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect
 
 def cmd_reference(args) -> int:
     from .output import check_target
-    from .reference import make_reference
+    from .reference import SEED, TWIN_SEED, make_reference
 
     out = check_target(args.output, args.overwrite)
     if not os.path.isfile(args.scene):
         raise UserError(f"no such file: {args.scene}")
     _open_blend(args.scene)
-    info = make_reference(args.scene, out, args.samples, args.frame, args.cache_dir, args.percentage)
+    info = make_reference(args.scene, out, args.samples, args.frame, args.cache_dir, args.percentage,
+                          TWIN_SEED if args.twin else SEED)
     how = "from cache" if info.get("cached") else f"{info['seconds']:.1f} s"
     print(f"wrote {out}: Cycles {args.samples} spp ({how}), hash {info['hash'][:12]}")
     return 0
@@ -438,6 +439,10 @@ def parser() -> argparse.ArgumentParser:
     ref.add_argument("--samples", type=int, default=4096, help="Cycles samples per pixel (default 4096)")
     ref.add_argument("--frame", type=int)
     ref.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
+    ref.add_argument("--twin", action="store_true",
+                     help="render the reference's twin: Combined alone, with another seed, so its noise is "
+                          "independent of the reference's; beside it in the bench's reference folder, the bench "
+                          "takes the references' own noise out of its errors (clean_rrmse)")
     ref.add_argument("--cache-dir", default=os.path.join(os.path.expanduser("~"), ".cache", "vpl_gi"),
                      help="where converged references are kept by hash")
     ref.add_argument("--overwrite", action="store_true")

@@ -1,7 +1,9 @@
 """Cycles as the judge: converged references rendered with the settings of DESIGN.md, cached by a hash.
 
-The hash covers the .blend file's bytes, the frame, the sample count and Blender's version, and is stored in the
-reference EXR's header (attribute ``vplReference``), so a reference made from an older scene is detected as stale.
+The hash covers the .blend file's bytes, the frame, the sample count, the seed and Blender's version, and is stored
+in the reference EXR's header (attribute ``vplReference``), so a reference made from an older scene is detected as
+stale. A *twin* is the same reference rendered with another seed (``TWIN_SEED``): two references with independent
+noise let the bench take their own noise out of an error (``metrics.clean_rrmse``).
 """
 from __future__ import annotations
 
@@ -25,14 +27,16 @@ KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR
 # (the example scenes made before glossy materials have none).
 GLOSSY_PASSES = P.GLOSSY
 SEED = 0
+TWIN_SEED = 17  # a second reference's seed: noise independent of the first's
 
 
-def reference_hash(blend_path: str, samples: int, frame: int | None, percentage: int | None = None) -> str:
+def reference_hash(blend_path: str, samples: int, frame: int | None, percentage: int | None = None,
+                   seed: int = SEED) -> str:
     digest = hashlib.sha256()
     with open(blend_path, "rb") as f:
         for block in iter(lambda: f.read(1 << 20), b""):
             digest.update(block)
-    settings = {"samples": samples, "frame": frame, "seed": SEED, "blender": bpy.app.version_string,
+    settings = {"samples": samples, "frame": frame, "seed": seed, "blender": bpy.app.version_string,
                 "passes": KEPT_PASSES}
     if percentage is not None:
         settings["percentage"] = percentage
@@ -69,9 +73,10 @@ def configure_cycles(scene, samples: int) -> None:
 
 
 def make_reference(blend_path: str, out_path: str, samples: int, frame: int | None = None,
-                   cache_dir: str | None = None, percentage: int | None = None) -> dict:
-    """Render (or fetch from the cache) the Cycles reference of ``blend_path``; returns its record."""
-    digest = reference_hash(blend_path, samples, frame, percentage)
+                   cache_dir: str | None = None, percentage: int | None = None, seed: int = SEED) -> dict:
+    """Render (or fetch from the cache) the Cycles reference of ``blend_path`` with Cycles' ``seed``; returns its
+    record. A twin (a seed other than ``SEED``) keeps Combined alone: it serves only to measure the noise."""
+    digest = reference_hash(blend_path, samples, frame, percentage, seed)
     cached = os.path.join(cache_dir, f"{digest}.exr") if cache_dir else None
     if cached and os.path.exists(cached) and stored_info(cached).get("hash") == digest:
         shutil.copyfile(cached, out_path)
@@ -83,6 +88,7 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
     if percentage is not None:
         scene.render.resolution_percentage = percentage
     configure_cycles(scene, samples)
+    scene.cycles.seed = seed
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(dir=os.path.dirname(os.path.abspath(out_path))) as tmp:
         raw = os.path.join(tmp, "cycles.exr")
@@ -90,9 +96,10 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
         seconds = time.perf_counter() - t0
         images, _ = read_passes(raw)
     info = {"hash": digest, "samples": samples, "frame": frame, "percentage": percentage,
-            "seconds": round(seconds, 2),
+            "seconds": round(seconds, 2), "seed": seed,
             "blend": os.path.basename(blend_path), "blender": bpy.app.version_string}
-    kept = {name: images[name] for name in KEPT_PASSES + GLOSSY_PASSES if name in images}
+    kept = {name: images[name] for name in (KEPT_PASSES + GLOSSY_PASSES if seed == SEED else (P.COMBINED,))
+            if name in images}
     write_passes(out_path, kept, {HEADER_KEY: json.dumps(info, sort_keys=True)}, half=True)
     if cached:
         os.makedirs(cache_dir, exist_ok=True)

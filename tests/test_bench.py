@@ -2,11 +2,12 @@
 ``python -m vpl_addon bench`` with the real bpy, Cycles and embree (columns, files, finite numbers; no timings)."""
 import csv
 import math
+import shutil
 
 import numpy as np
 import pytest
 
-from conftest import EXAMPLES, plane_scene, run_cli
+from conftest import EXAMPLES, REFERENCES, plane_scene, run_cli
 from test_cli import assert_one_line_error
 from vpl_addon.evaluation.convergence import Curve, equal_error, equal_time, error_at, fit_exponent, time_to_error
 from vpl_addon.evaluation.subdivision import levels_for, subdivide
@@ -103,9 +104,21 @@ def test_a_light_cut_into_strips_gives_the_same_light(ext):
 
 @pytest.mark.blender
 def test_bench_cli_tiny_run(ext, tmp_path):
-    out = tmp_path / "bench"
+    """The bench's sweep, CSV, plot, headlines and scaling, with the committed 25 % reference and a twin of it
+    rendered here (``reference --twin``): the twin's Combined takes the references' noise out of Combined's errors."""
+    out, refs = tmp_path / "bench", tmp_path / "references"
+    refs.mkdir()
+    shutil.copy(REFERENCES / "cornell_area_25pct.exr", refs)
+    code, _, stderr = run_cli("reference", EXAMPLES / "cornell_area.blend", "-o", refs / "twin.exr", "--twin",
+                              "--percentage", "25", "--samples", "64", "--cache-dir", tmp_path / "cache")
+    assert code == 0, stderr
+    from vpl_gi.operators.reference import TWIN_SEED, stored_info
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    assert list(read_passes(str(refs / "twin.exr"))[0]) == ["Combined"]
+    assert stored_info(str(refs / "twin.exr"))["seed"] == TWIN_SEED
     code, stdout, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--scaling",
-                                   "--methods", "ir,bidir,ir+oidn,cycles,cycles+oidn", "--out", out)
+                                   "--methods", "ir,bidir,ir+oidn,cycles,cycles+oidn", "--out", out,
+                                   "--reference-dir", refs)
     assert code == 0, stderr
     from vpl_gi.bench.runner import COLUMNS
     with open(out / "bench.csv", newline="") as f:
@@ -120,6 +133,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     for r in rows:
         for column in ("wall_s", "rmae", "relmse", "rmse_reinhard", "mean_ratio", "rmae4", "peak_rss_mb"):
             assert math.isfinite(float(r[column])), (column, r)
+        assert (r["clean_rrmse"] != "") == (r["pass"] == "Combined"), r  # the twin has Combined alone
         assert r["width"] == r["height"] == "64"  # --quick: 25 % of 256, the committed 25 % reference
         if r["method"] in ("ir", "bidir"):
             assert int(r["rays"]) > 0 and math.isfinite(float(r["gather_s"]))
@@ -129,8 +143,11 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     # ir+oidn is ir with its picture denoised: the same light, less noise (rMAE 0.141 -> 0.108 at 256 VPLs)
     combined = {(r["method"], int(r["budget"])): float(r["rmae"]) for r in rows if r["pass"] == "Combined"}
     assert combined["ir+oidn", 256] < 0.9 * combined["ir", 256]
+    clean = {(r["method"], int(r["budget"])): float(r["clean_rrmse"]) for r in rows if r["pass"] == "Combined"}
+    assert 0.0 < clean["cycles", 4] < 0.7 * clean["cycles", 1]  # noise: 1/2 at 4x the samples
     assert (out / "cornell_area.png").stat().st_size > 5000
     summary = (out / "summary.txt").read_text()
+    assert "relative RMSE with the references' own noise taken out" in summary
     assert "equal time 2 s" in summary and "equal time 30 s" in summary and "equal error" in summary and "against cycles+oidn" in summary
     assert "gather shadow rays" in summary and "% of raw" in summary and "disagree" not in summary
     with open(out / "scaling.csv", newline="") as f:

@@ -8,7 +8,7 @@ from vpl_addon.core.camera import Camera, filter_inverse_cdf, view_window
 from vpl_addon.core.exr import read_passes, write_passes
 from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.core.tracer import Tracer
-from vpl_addon.evaluation.metrics import coverage_mask, errors
+from vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors
 from vpl_addon.materials.textures import sample_bilinear
 
 CAM = Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=False))
@@ -159,6 +159,29 @@ def test_block_rmae_forgives_a_checkerboard_of_noise_but_not_a_bias_and_keeps_to
     assert errors(img, ref, mask)["rmae4"] == 0.0 and errors(img, ref)["rmae4"] > 1.0
     small = errors(ref[:2, :2] * 1.1, ref[:2, :2])
     assert small["rmae4"] == small["rmae"]
+
+
+def test_clean_rrmse_takes_the_references_own_noise_out_and_keeps_an_images_error():
+    """Two references with independent noise (sigma 0.3 of a mean of 1) stand for the truth: an image with noise
+    0.1 of its own measures 0.1 where its RMSE against one reference is sqrt(0.1^2 + 0.3^2) = 0.32; the truth
+    itself measures about 0 and a 10 % bias 0.1. One of the references scores 0: its noise is theirs, the case the
+    metric leaves out (a renderer's image is independent of the references)."""
+    rng = np.random.default_rng(7)
+    truth = np.ones((256, 256, 3))
+    a, b = (truth + rng.normal(0.0, 0.3, truth.shape) for _ in range(2))
+    image = truth + rng.normal(0.0, 0.1, truth.shape)
+    assert np.sqrt(np.mean((image - a) ** 2)) == pytest.approx(0.316, rel=0.02)
+    assert clean_rrmse(image, a, b) == pytest.approx(0.1, rel=0.05)
+    assert clean_rrmse(truth, a, b) < 0.01
+    assert clean_rrmse(1.1 * truth, a, b) == pytest.approx(0.1, rel=0.05)
+    assert clean_rrmse(a, a, b) < 1e-6
+    mask = np.zeros((256, 256), bool)
+    mask[:, :128] = True
+    dark = image.copy()
+    dark[:, 128:] = 0.0  # outside the mask: ignored
+    assert clean_rrmse(dark, a, b, mask) == pytest.approx(0.1, rel=0.05)
+    with pytest.raises(ValueError):
+        clean_rrmse(image, a, b[:8])
 
 
 def test_metrics_ignore_pixels_the_reference_does_not_cover_fully():
