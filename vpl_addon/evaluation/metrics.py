@@ -5,7 +5,8 @@ over masked pixels and channels; relMSE the squared analogue; RMSE after Reinhar
 mean ratio = mean(I) / mean(I_ref). ``rmae4`` is rMAE after both images are averaged over 4 x 4 pixel blocks (the
 blocks the mask holds whole): a reference's own noise there is about a quarter of its per-pixel noise, while a
 method's bias, and the blotches a denoiser leaves, stay (the corridor's 16384-spp reference differs from itself
-denoised by rMAE 0.066 per pixel, 0.014 in blocks: bench/README.md). The mask keeps pixels whose reference
+denoised by rMAE 0.066 per pixel, 0.014 in blocks: bench/README.md). ``clean_rrmse`` takes that noise out
+altogether, given a second reference (a twin) with noise of its own. The mask keeps pixels whose reference
 alpha is at least 0.999: silhouette pixels have random coverage and would dominate the error of a pass that
 Cycles divides by a colour. For those passes (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, the
 glossy ones by ``Glossy Color``) the pixels whose reference colour is 0 (metals for the diffuse passes, diffuse
@@ -100,10 +101,10 @@ def clean_rrmse(image: np.ndarray, reference: np.ndarray, twin: np.ndarray, mask
         raise ValueError(f"image {img.shape}, reference {a.shape} and twin {b.shape} differ in size")
     mask = np.ones(a.shape[:2], bool) if mask is None else mask
     img, a, b = img[mask], a[mask], b[mask]
+    if img.size == 0:
+        raise ValueError("no pixel is fully covered in the reference: nothing to compare")
     mean = 0.5 * (a + b)
-    scale = float(mean.mean())
-    if img.size == 0 or scale <= 0.0:
-        raise ValueError("no covered pixel with light in the references: nothing to compare")
+    scale = max(float(mean.mean()), 1e-8)  # black references: as ``errors``' floor, an absolute error over 1e-8
     squared = float(np.mean((img - mean) ** 2) - 0.25 * np.mean((a - b) ** 2))
     return float(np.sqrt(max(squared, 0.0)) / scale)
 
