@@ -17,7 +17,7 @@ import time
 import bpy
 
 from ..vpl_addon.core import passes as P
-from ..vpl_addon.core.exr import read_passes, write_passes
+from ..vpl_addon.core.exr import read_header, read_passes, write_passes
 from .engine import LIGHT_PASSES
 from .output import render_to
 
@@ -46,8 +46,7 @@ def reference_hash(blend_path: str, samples: int, frame: int | None, percentage:
 
 def stored_info(path: str) -> dict:
     """The ``vplReference`` record of a reference EXR ({} if it has none)."""
-    _, header = read_passes(path)
-    raw = header.get(HEADER_KEY)
+    raw = read_header(path).get(HEADER_KEY)
     return json.loads(raw) if raw else {}
 
 

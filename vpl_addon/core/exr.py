@@ -41,6 +41,12 @@ def read_passes(path: str, layer: str | None = None) -> tuple[dict[str, np.ndarr
     return passes, header
 
 
+def read_header(path: str) -> dict:
+    """The header of the first part of ``path`` (what ``read_passes`` returns beside the passes), pixels unread."""
+    with OpenEXR.File(str(path), header_only=True) as f:
+        return dict(f.parts[0].header) if f.parts else {}
+
+
 def write_passes(path: str, passes: dict[str, np.ndarray], attributes: dict | None = None,
                  half: bool = False) -> None:
     """Write passes (H,W,C) as a multi-part EXR, atomically; ``half`` stores 16-bit floats (PIZ) for small files."""
