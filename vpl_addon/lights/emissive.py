@@ -103,7 +103,7 @@ def _emission(scene) -> np.ndarray:
 def _triangle_samples(p, idx, triangles, normals, radiance, prob, u1, u2, wi, dist, weight):
     """For each sample i at point p[i] on triangle idx[i] (chosen with probability prob): the direction ``wi``
     uniform in the solid angle Omega the triangle subtends (``_spherical_triangle``), the distance ``dist`` to it
-    along wi, and the weight L_e / pdf = L Omega / prob."""
+    along wi, and the weight L_e / pdf = L Omega / prob; all three zero where Omega is 0."""
     for i in range(len(idx)):
         t = idx[i]
         if prob[t] <= 0.0:
@@ -112,13 +112,15 @@ def _triangle_samples(p, idx, triangles, normals, radiance, prob, u1, u2, wi, di
         q1 = (triangles[t, 1, 0] - p[i, 0], triangles[t, 1, 1] - p[i, 1], triangles[t, 1, 2] - p[i, 2])
         q2 = (triangles[t, 2, 0] - p[i, 0], triangles[t, 2, 1] - p[i, 1], triangles[t, 2, 2] - p[i, 2])
         solid, w = _spherical_triangle(q0, q1, q2, u1[i], u2[i])
+        if not solid > 0.0:  # a point in the triangle's plane outside it, on its edge or corner: no light
+            continue
         n = (normals[t, 0], normals[t, 1], normals[t, 2])
         # the plane's distance along w, kept within the triangle's farthest corner (rounding at grazing angles)
         far = max(np.sqrt(_dot(q0, q0)), np.sqrt(_dot(q1, q1)), np.sqrt(_dot(q2, q2)))
         facing = _dot(n, w)
-        d = _dot(n, q0) / facing if facing != 0.0 else far
+        d = min(max(_dot(n, q0) / facing if facing != 0.0 else far, 0.0), far)
         wi[i, 0], wi[i, 1], wi[i, 2] = w
-        dist[i] = min(max(d, 0.0), far)
+        dist[i] = d
         for c in range(3):
             weight[i, c] = solid / prob[t] * radiance[t, c]
 
@@ -144,18 +146,48 @@ def _across(a, b):
 
 
 @inline
+def _solid_angle(a, b, c):
+    """The solid angle of the spherical triangle with unit corners a, b, c (Van Oosterom and Strackee 1983:
+    tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a))."""
+    bc = (b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2], b[0] * c[1] - b[1] * c[0])
+    return 2.0 * np.arctan2(abs(_dot(a, bc)), 1.0 + _dot(a, b) + _dot(b, c) + _dot(c, a))
+
+
+@inline
 def _spherical_triangle(q0, q1, q2, u1, u2):
-    """The solid angle Omega of the triangle with corners q0, q1, q2 seen from the origin (Van Oosterom and
-    Strackee 1983: tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a) for unit a, b, c), and the unit direction
-    that (u1, u2) maps to, uniformly in it (Arvo, "Stratified Sampling of Spherical Triangles", SIGGRAPH 1995:
-    u1 picks the sub-triangle of area u1 Omega that has the corners a, b and a point c' on arc ac, u2 a point on
-    the arc from b to c' by its cosine)."""
+    """The solid angle Omega of the triangle with corners q0, q1, q2 seen from the origin (``_solid_angle``), and
+    the unit direction that (u1, u2) maps to, uniformly in it (``_arvo``). Above pi sr the origin's foot on the
+    triangle's plane lies inside the triangle, and the triangle is cut there into three, each drawn with the
+    share of Omega it has: their corners at the foot are straight below the origin and the others away from it,
+    where the whole triangle seen from nearly in its plane has three angles near pi, at which Arvo's construction
+    runs out of double precision (4 % bright at 1e-8 of the triangle's size from it, dark at 1e-10)."""
     a, _ = _unit(q0)
     b, _ = _unit(q1)
     c, _ = _unit(q2)
-    bc = (b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2], b[0] * c[1] - b[1] * c[0])
+    solid = _solid_angle(a, b, c)
+    if not solid > np.pi:
+        return solid, _arvo(a, b, c, solid, u1, u2)
+    e1, e2 = (q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]), (q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2])
+    n, _ = _unit((e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]))
+    height = _dot(q0, n)
+    f, _ = _unit((height * n[0], height * n[1], height * n[2]))  # toward the foot
+    s0, s1, s2 = _solid_angle(f, a, b), _solid_angle(f, b, c), _solid_angle(f, c, a)
+    total = s0 + s1 + s2
+    x = u1 * total
+    if x < s0:
+        return total, _arvo(a, f, b, s0, x / s0, u2)
+    if x < s0 + s1:
+        return total, _arvo(b, f, c, s1, (x - s0) / s1, u2)
+    return total, _arvo(c, f, a, s2, min((x - s0 - s1) / max(s2, 1e-300), 1.0), u2)
+
+
+@inline
+def _arvo(a, b, c, solid, u1, u2):
+    """The unit direction (u1, u2) maps to uniformly in the spherical triangle of unit corners a, b, c and area
+    ``solid`` (Arvo, "Stratified Sampling of Spherical Triangles", SIGGRAPH 1995): u1 picks the sub-triangle of
+    area u1 Omega that has the corners a, b and a point c' on arc ac, u2 a point on the arc from b to c' by its
+    cosine. Well conditioned unless the angle at a is near pi."""
     cos_c = _dot(a, b)
-    solid = 2.0 * np.arctan2(abs(_dot(a, bc)), 1.0 + cos_c + _dot(b, c) + _dot(c, a))
     ab_t, ac_t = _across(a, b), _across(a, c)  # the arcs' tangents at a: the angle between them is alpha
     cos_alpha = _dot(ab_t, ac_t)
     cross = (ab_t[1] * ac_t[2] - ab_t[2] * ac_t[1], ab_t[2] * ac_t[0] - ab_t[0] * ac_t[2],
@@ -175,4 +207,4 @@ def _spherical_triangle(q0, q1, q2, u1, u2):
     z = 1.0 - u2 * gap
     r = np.sqrt(max(u2 * gap * (2.0 - u2 * gap), 0.0))  # sqrt(1 - z^2) without the cancellation
     e = _across(b, c2)
-    return solid, (z * b[0] + r * e[0], z * b[1] + r * e[1], z * b[2] + r * e[2])
+    return _unit((z * b[0] + r * e[0], z * b[1] + r * e[1], z * b[2] + r * e[2]))[0]  # unit to the last digit
