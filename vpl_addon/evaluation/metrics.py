@@ -52,20 +52,32 @@ def _rmae(img: np.ndarray, ref: np.ndarray) -> float:
     return float(np.mean(np.abs(img - ref) / (ref + eps)))
 
 
+def _rgb(image: np.ndarray, *references: np.ndarray) -> list[np.ndarray]:
+    """The RGB of ``image`` and of the ``references`` it is judged against, in float64; a ValueError naming their
+    sizes where they differ."""
+    img, *refs = (np.asarray(x, np.float64)[..., :3] for x in (image, *references))
+    if any(r.shape != img.shape for r in refs):
+        sizes = " and ".join(f"{r.shape[1]}x{r.shape[0]}" for r in refs)
+        are = "references are" if len(refs) > 1 else "reference is"
+        raise ValueError(f"image is {img.shape[1]}x{img.shape[0]} but the {are} {sizes}")
+    return [img, *refs]
+
+
+def _inside(mask: np.ndarray, *images: np.ndarray) -> list[np.ndarray]:
+    """Each image's pixels in ``mask``; a ValueError where the mask holds none."""
+    if not mask.any():
+        raise ValueError("no pixel is fully covered in the reference: nothing to compare")
+    return [x[mask] for x in images]
+
+
 def errors(image: np.ndarray, reference: np.ndarray, mask: np.ndarray | None = None) -> dict[str, float]:
     """rMAE, relMSE, Reinhard RMSE, mean ratio and rMAE of 4 x 4 blocks (``rmae4``; of the pixels if no block is
     whole) of (H,W,C) ``image`` against ``reference`` (RGB only)."""
-    img = np.asarray(image, np.float64)[..., :3]
-    ref = np.asarray(reference, np.float64)[..., :3]
-    if img.shape != ref.shape:
-        raise ValueError(f"image is {img.shape[1]}x{img.shape[0]} but the reference is {ref.shape[1]}x{ref.shape[0]}")
-    if mask is None:
-        mask = np.ones(ref.shape[:2], bool)
+    img, ref = _rgb(image, reference)
+    mask = np.ones(ref.shape[:2], bool) if mask is None else mask
     whole = block_means(mask[..., None].astype(np.float64), BLOCK)[..., 0] >= 1.0
     img_blocks, ref_blocks = block_means(img, BLOCK)[whole], block_means(ref, BLOCK)[whole]
-    img, ref = img[mask], ref[mask]
-    if img.size == 0:
-        raise ValueError("no pixel is fully covered in the reference: nothing to compare")
+    img, ref = _inside(mask, img, ref)
     ref_mean = float(ref.mean())
     eps = 0.01 * ref_mean if ref_mean > 0 else 1e-8
     diff = img - ref
@@ -96,13 +108,8 @@ def clean_rrmse(image: np.ndarray, reference: np.ndarray, twin: np.ndarray, mask
     estimates the error against the truth T without bias in the squared error (RGB only, over ``mask``). Per-pixel
     metrics against one reference (rMAE) keep its noise in every figure: the corridor's 16384-spp reference
     differs from a second one by rMAE 0.095, so a perfect picture scores about 0.067 there (bench/README.md)."""
-    img, a, b = (np.asarray(x, np.float64)[..., :3] for x in (image, reference, twin))
-    if not img.shape == a.shape == b.shape:
-        raise ValueError(f"image {img.shape}, reference {a.shape} and twin {b.shape} differ in size")
-    mask = np.ones(a.shape[:2], bool) if mask is None else mask
-    img, a, b = img[mask], a[mask], b[mask]
-    if img.size == 0:
-        raise ValueError("no pixel is fully covered in the reference: nothing to compare")
+    img, a, b = _rgb(image, reference, twin)
+    img, a, b = _inside(np.ones(a.shape[:2], bool) if mask is None else mask, img, a, b)
     mean = 0.5 * (a + b)
     scale = max(float(mean.mean()), 1e-8)  # black references: as ``errors``' floor, an absolute error over 1e-8
     squared = float(np.mean((img - mean) ** 2) - 0.25 * np.mean((a - b) ** 2))
