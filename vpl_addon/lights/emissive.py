@@ -127,7 +127,14 @@ def _triangle_samples(p, idx, triangles, normals, radiance, prob, u1, u2, wi, di
 
 @inline
 def _dot(a, b):
+    """a . b of two 3-tuples."""
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@inline
+def _cross(a, b):
+    """a x b of two 3-tuples."""
+    return a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]
 
 
 @inline
@@ -149,8 +156,7 @@ def _across(a, b):
 def _solid_angle(a, b, c):
     """The solid angle of the spherical triangle with unit corners a, b, c (Van Oosterom and Strackee 1983:
     tan(Omega / 2) = |a . (b x c)| / (1 + a.b + b.c + c.a))."""
-    bc = (b[1] * c[2] - b[2] * c[1], b[2] * c[0] - b[0] * c[2], b[0] * c[1] - b[1] * c[0])
-    return 2.0 * np.arctan2(abs(_dot(a, bc)), 1.0 + _dot(a, b) + _dot(b, c) + _dot(c, a))
+    return 2.0 * np.arctan2(abs(_dot(a, _cross(b, c))), 1.0 + _dot(a, b) + _dot(b, c) + _dot(c, a))
 
 
 @inline
@@ -168,7 +174,7 @@ def _spherical_triangle(q0, q1, q2, u1, u2):
     if not solid > np.pi:
         return solid, _arvo(a, b, c, solid, u1, u2)
     e1, e2 = (q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]), (q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2])
-    n, _ = _unit((e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]))
+    n, _ = _unit(_cross(e1, e2))
     height = _dot(q0, n)
     f, _ = _unit((height * n[0], height * n[1], height * n[2]))  # toward the foot
     s0, s1, s2 = _solid_angle(f, a, b), _solid_angle(f, b, c), _solid_angle(f, c, a)
@@ -190,9 +196,7 @@ def _arvo(a, b, c, solid, u1, u2):
     cos_c = _dot(a, b)
     ab_t, ac_t = _across(a, b), _across(a, c)  # the arcs' tangents at a: the angle between them is alpha
     cos_alpha = _dot(ab_t, ac_t)
-    cross = (ab_t[1] * ac_t[2] - ab_t[2] * ac_t[1], ab_t[2] * ac_t[0] - ab_t[0] * ac_t[2],
-             ab_t[0] * ac_t[1] - ab_t[1] * ac_t[0])
-    sin_alpha = np.sqrt(_dot(cross, cross))
+    sin_alpha = _unit(_cross(ab_t, ac_t))[1]
     sub = u1 * solid - np.arctan2(sin_alpha, cos_alpha)
     s, t = np.sin(sub), np.cos(sub)
     u = t - cos_alpha
