@@ -366,6 +366,8 @@ class Options:
     percentage: int | None = None
     samples: int | None = None  # engine camera and light samples; None: the scene's (the user's defaults)
     light_samples: int | None = None
+    denoise_prefilter: str | None = None  # the denoised engine runs' (None: the scene's, as F12 would)
+    denoise_quality: str | None = None
     time_cap: float = 40.0
     reference_dir: str = os.path.join(ROOT, "tests", "references")
     reference_samples: int = 4096
@@ -375,9 +377,11 @@ class Options:
     scaling: bool = False
     seeds: int = 1  # runs of each budget, with seeds 0..seeds-1
 
-    def sampled(self, settings: RenderSettings) -> RenderSettings:
-        """``settings`` with the camera and light samples asked for (the scene's where not)."""
-        given = {"samples": self.samples, "light_samples": self.light_samples}
+    def engine_settings(self, settings: RenderSettings) -> RenderSettings:
+        """``settings`` with the camera and light samples and the denoiser's settings asked for (the scene's where
+        not)."""
+        given = {"samples": self.samples, "light_samples": self.light_samples,
+                 "denoise_prefilter": self.denoise_prefilter, "denoise_quality": self.denoise_quality}
         return dataclasses.replace(settings, **{k: v for k, v in given.items() if v is not None})
 
 
@@ -469,7 +473,7 @@ class Bench:
                 raise BenchError(f"{blend}: renders at {built.camera.width}x{built.camera.height} but its reference "
                                  f"is {w}x{h}")
             base = scene.vpl_gi.render_settings(ENGINE_PASSES)
-            base = self.o.sampled(base)
+            base = self.o.engine_settings(base)
             for method in engine_methods:
                 knob = knob_of(method)
                 denoised = method.endswith(DENOISED)  # judged on the picture only: the light passes stay estimates
@@ -627,7 +631,7 @@ def scaling(bench: Bench, blend: str) -> list[str]:
         finally:
             scene.render.resolution_x, scene.render.resolution_y = size
 
-    base = o.sampled(dataclasses.replace(scene.vpl_gi.render_settings(ENGINE_PASSES), method=method))
+    base = o.engine_settings(dataclasses.replace(scene.vpl_gi.render_settings(ENGINE_PASSES), method=method))
     small, budget = (25, 64) if o.quick else (50, 1024)
     built = extracted(max(1, own * small // 100))
     levels = levels_for(len(built.triangles), largest=2_000_000)[:2 if o.quick else None]

@@ -62,6 +62,10 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
             sub.prop(settings, "interleave")
         sub.prop(settings, "filter")
         layout.prop(settings, "denoise")
+        sub = layout.column()
+        sub.active = settings.denoise
+        sub.prop(settings, "denoising_prefilter")
+        sub.prop(settings, "denoising_quality")
 
 
 class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):
@@ -70,12 +74,18 @@ class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):
     bl_context = "render"
 
     SETTINGS = ("viewport_samples", "viewport_time_limit", "viewport_start_resolution", "viewport_denoise")
+    DENOISING = ("preview_denoising_prefilter", "preview_denoising_quality")
 
     def draw(self, context):
         self.layout.use_property_split = True
+        settings = context.scene.vpl_gi
         column = self.layout.column()
         for name in self.SETTINGS:
-            column.prop(context.scene.vpl_gi, name)
+            column.prop(settings, name)
+        sub = self.layout.column()
+        sub.active = settings.viewport_denoise
+        for name in self.DENOISING:
+            sub.prop(settings, name)
 
 
 class VIEWLAYER_PT_vpl_gi_passes(_VPLGIPanel, bpy.types.Panel):

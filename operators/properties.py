@@ -37,6 +37,19 @@ FILTER_ITEMS = (
     ("BLACKMAN_HARRIS", "Blackman-Harris", "Blackman-Harris filter: sharper than Gaussian (Cycles' default)"),
 )
 
+PREFILTER_ITEMS = (  # Cycles' Denoising Prefilter, in ``core.denoise.PREFILTERS``' order
+    ("ACCURATE", "Accurate", "Denoise the albedo and normal guides first, then the image with them as clean ones: "
+                             "the most detail, three OpenImageDenoise runs"),
+    ("FAST", "Fast", "One run that takes the guides as noisy: a seventh of Accurate's time at High quality, a "
+                     "little softer"),
+    ("NONE", "None", "One run that takes the guides as they are, as clean: fast, keeps the guides' own noise"),
+)
+QUALITY_ITEMS = (  # Cycles' Denoising Quality (OpenImageDenoise's), in ``core.denoise.QUALITIES``' order
+    ("HIGH", "High", "OpenImageDenoise's largest network: the best picture, the slowest"),
+    ("BALANCED", "Balanced", "A smaller network: about half High's time, nearly its picture"),
+    ("FAST", "Fast", "The smallest network: for previews"),
+)
+
 
 def _cycles_setting(name: str, items=None) -> dict:
     """``get`` and ``set`` of a setting of ours that shows, and renders with, the scene's Cycles setting of the same
@@ -87,6 +100,16 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Denoise", default=True,
         description="Denoise the finished image (Combined) with OpenImageDenoise, guided by the surfaces' albedo and "
                     "normal, as Cycles' render denoiser does; the light passes stay as rendered")
+    denoising_prefilter: bpy.props.EnumProperty(
+        name="Prefilter", items=PREFILTER_ITEMS, default=_RENDER.denoise_prefilter,
+        **_cycles_setting("denoising_prefilter", PREFILTER_ITEMS),
+        description="How the denoiser treats its albedo and normal guides (as Cycles' Denoise > Prefilter; until set "
+                    "here, the scene's Cycles value)")
+    denoising_quality: bpy.props.EnumProperty(
+        name="Quality", items=QUALITY_ITEMS, default=_RENDER.denoise_quality,
+        **_cycles_setting("denoising_quality", QUALITY_ITEMS),
+        description="OpenImageDenoise's network: quality against time (as Cycles' Denoise > Quality; until set "
+                    "here, the scene's Cycles value)")
     photons: bpy.props.IntProperty(
         name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
         description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother")
@@ -159,6 +182,16 @@ class VPLGISettings(bpy.types.PropertyGroup):
     viewport_denoise: bpy.props.BoolProperty(
         name="Denoise", default=_VIEW.denoise,
         description="Rendered shading: denoise the image with OpenImageDenoise after each pass")
+    preview_denoising_prefilter: bpy.props.EnumProperty(
+        name="Prefilter", items=PREFILTER_ITEMS, default=_VIEW.denoise_prefilter,
+        **_cycles_setting("preview_denoising_prefilter", PREFILTER_ITEMS),
+        description="Rendered shading: how the denoiser treats its albedo and normal guides (as Cycles' viewport "
+                    "Denoise > Prefilter; until set here, the scene's Cycles value)")
+    preview_denoising_quality: bpy.props.EnumProperty(
+        name="Quality", items=QUALITY_ITEMS, default=_VIEW.denoise_quality,
+        **_cycles_setting("preview_denoising_quality", QUALITY_ITEMS),
+        description="Rendered shading: OpenImageDenoise's network (as Cycles' viewport Denoise > Quality; until set "
+                    "here, the scene's Cycles value)")
     bake_directory: bpy.props.StringProperty(
         name="Bake Folder", default="//vpl_bake/", subtype="DIR_PATH",
         description="Folder of the baked sequence: frame_NNNN.exr per frame, and the state a bake resumes from")
@@ -177,7 +210,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
         mist = Mist() if world is None else Mist(world.mist_settings.start, world.mist_settings.depth,
                                                  MIST_FALLOFF[world.mist_settings.falloff])
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
-                              mist=mist, denoise=self.denoise,
+                              mist=mist, denoise=self.denoise, denoise_prefilter=self.denoising_prefilter,
+                              denoise_quality=self.denoising_quality,
                               ao_distance=10.0 if world is None else world.light_settings.distance,
                               film_transparent=self.id_data.render.film_transparent,
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
@@ -187,7 +221,9 @@ class VPLGISettings(bpy.types.PropertyGroup):
     def viewport_settings(self) -> ViewportSettings:
         """The progressive render of the 3D view's Rendered shading (``vpl_addon.progressive``)."""
         return ViewportSettings(start_resolution=self.viewport_start_resolution, samples=self.viewport_samples,
-                                time_limit=self.viewport_time_limit, denoise=self.viewport_denoise)
+                                time_limit=self.viewport_time_limit, denoise=self.viewport_denoise,
+                                denoise_prefilter=self.preview_denoising_prefilter,
+                                denoise_quality=self.preview_denoising_quality)
 
 
 def register():

@@ -19,9 +19,10 @@ GUIDE_PASSES = ("Denoising Albedo", "Denoising Normal")
 
 
 def _render(bpy, path, engine_name, denoise, samples, size=64, method="vbnl", light_samples=1, compositor=False,
-            blend=SCENE):
+            blend=SCENE, denoising=None):
     """The PBR Cornell box (textures, metal; or ``blend``) with the Denoising Data passes: its view layer's passes.
-    ``compositor`` adds a Denoise node fed as for Cycles (``_denoise_node``)."""
+    ``compositor`` adds a Denoise node fed as for Cycles (``_denoise_node``); ``denoising`` (prefilter, quality)
+    sets ours and the node's alike (Cycles' names)."""
     from vpl_gi.operators.output import render_to
     from vpl_gi.vpl_addon.core.exr import LAYER, read_passes
     bpy.ops.wm.open_mainfile(filepath=str(blend))
@@ -38,16 +39,18 @@ def _render(bpy, path, engine_name, denoise, samples, size=64, method="vbnl", li
     else:
         scene.vpl_gi.samples, scene.vpl_gi.light_samples, scene.vpl_gi.denoise = samples, light_samples, denoise
         scene.vpl_gi.method = method
+        if denoising is not None:
+            scene.vpl_gi.denoising_prefilter, scene.vpl_gi.denoising_quality = denoising
     if compositor:
-        _denoise_node(bpy, scene)
+        _denoise_node(bpy, scene, denoising)
     render_to(scene, str(path))
     return read_passes(str(path), LAYER)[0]
 
 
-def _denoise_node(bpy, scene):
+def _denoise_node(bpy, scene, denoising=None):
     """The compositor as a user sets it up for Cycles' Denoising Data: Render Layers' Noisy Image, Denoising Albedo
-    and Denoising Normal into a Denoise node (its defaults: Accurate prefilter, HDR, the scene's quality), out as the
-    composite (Blender 5's compositing node group)."""
+    and Denoising Normal into a Denoise node (its defaults: Accurate prefilter, HDR, the scene's quality; or
+    ``denoising``'s prefilter and quality), out as the composite (Blender 5's compositing node group)."""
     tree = bpy.data.node_groups.new("Denoise", "CompositorNodeTree")
     tree.interface.new_socket("Image", in_out="OUTPUT", socket_type="NodeSocketColor")
     scene.compositing_node_group = tree
@@ -56,6 +59,9 @@ def _denoise_node(bpy, scene):
     for source, target in (("Noisy Image", "Image"), ("Denoising Albedo", "Albedo"), ("Denoising Normal", "Normal")):
         tree.links.new(layers.outputs[source], node.inputs[target])
     tree.links.new(node.outputs["Image"], out.inputs[0])
+    if denoising is not None:
+        for socket, value in zip(("Prefilter", "Quality"), denoising):
+            node.inputs[socket].default_value = value.title()
 
 
 def _guide_means(passes) -> dict:
@@ -112,21 +118,46 @@ def test_the_denoising_albedo_of_an_emitter_and_of_the_world_is_cycles(ext, tmp_
     np.testing.assert_allclose(albedo[0][16, 16][:3], (6.0, 3.6, 1.2), rtol=0.01)
 
 
-def test_compositor_denoise_node_gives_the_denoised_render(ext, tmp_path):
-    """A compositor Denoise node fed by our Noisy Image, Denoising Albedo and Denoising Normal, set up as for Cycles,
-    gives our denoised Combined: the same OIDN on the same images (fed bottom row first, as Blender holds images;
-    upside down, OIDN's output differs by 2-3 % rMAE). Measured: identical to the bit."""
+@pytest.mark.parametrize("denoising", [None, ("FAST", "BALANCED"), ("NONE", "FAST")])
+def test_compositor_denoise_node_gives_the_denoised_render(ext, tmp_path, denoising):
+    """A compositor Denoise node fed by our Noisy Image, Denoising Albedo and Denoising Normal, set up as for Cycles
+    (its defaults, or the prefilter and quality we render with), gives our denoised Combined: the same OIDN on the
+    same images (fed bottom row first, as Blender holds images; upside down, OIDN's output differs by 2-3 % rMAE),
+    so our Prefilter and Quality mean what Cycles' do. Measured: identical to the bit. The settings differ from
+    each other (each picture at least 0.1 % rMAE from the defaults')."""
     import bpy
     from vpl_gi.operators import engine
     from vpl_gi.vpl_addon.core.exr import read_passes
     from vpl_gi.vpl_addon.evaluation.metrics import errors
     path = tmp_path / "composited.exr"
-    ours = _render(bpy, path, engine.VPLGIRenderEngine.bl_idname, True, 4, compositor=True)
+    ours = _render(bpy, path, engine.VPLGIRenderEngine.bl_idname, True, 4, compositor=True, denoising=denoising)
     composite = read_passes(str(path), "Composite")[0]["Combined"]
     covered = ours["Combined"][..., 3] > 0.999
     assert errors(ours["Noisy Image"], ours["Combined"], covered)["rmae"] > 0.02  # there is noise to remove
     assert errors(composite, ours["Combined"], covered)["rmae"] < 0.01
     assert ours["Noisy Image"].shape == ours["Combined"].shape
+    if denoising is not None:
+        default = _render(bpy, tmp_path / "default.exr", engine.VPLGIRenderEngine.bl_idname, True, 4)["Combined"]
+        assert errors(ours["Combined"], default, covered)["rmae"] > 0.001
+
+
+def test_denoising_settings_follow_the_scenes_cycles_ones(ext):
+    """A scene set up for Cycles keeps its denoiser's Prefilter and Quality, for F12 and for the viewport, until
+    they are set here; the defaults are Cycles' (Accurate / High for renders, Fast / Balanced in the viewport)."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    ours, cycles = scene.vpl_gi, scene.cycles
+    assert (ours.denoising_prefilter, ours.denoising_quality) == ("ACCURATE", "HIGH")
+    assert (ours.preview_denoising_prefilter, ours.preview_denoising_quality) == ("FAST", "BALANCED")
+    cycles.denoising_prefilter, cycles.denoising_quality = "NONE", "FAST"
+    cycles.preview_denoising_prefilter = "ACCURATE"
+    settings, viewport = ours.render_settings(("Combined",)), ours.viewport_settings()
+    assert (settings.denoise_prefilter, settings.denoise_quality) == ("NONE", "FAST")
+    assert (viewport.denoise_prefilter, viewport.denoise_quality) == ("ACCURATE", "BALANCED")
+    ours.denoising_prefilter = "FAST"
+    cycles.denoising_prefilter = "ACCURATE"
+    assert ours.render_settings(("Combined",)).denoise_prefilter == "FAST"
 
 
 def test_denoise_brings_a_few_samples_close_to_the_converged_picture(ext, tmp_path):

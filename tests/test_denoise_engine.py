@@ -20,11 +20,13 @@ def _lit():
     return plane_scene([PointLight("lamp", [1.0, 0.0, 2.0], [200.0] * 3, radius=0.5)], res=48)
 
 
-def test_progress_reaches_into_the_denoiser():
-    """OIDN's own progress (its three runs: the two guides, then the colour) arrives as "denoising" between 0 and 1,
-    rising, and the picture comes out denoised."""
+@pytest.mark.parametrize("prefilter", ["ACCURATE", "FAST"])
+def test_progress_reaches_into_the_denoiser(prefilter):
+    """OIDN's own progress (Accurate: its three runs, the two guides, then the colour; Fast: one run) arrives as
+    "denoising" between 0 and 1, rising, and the picture comes out denoised."""
     heard = []
-    result = render(_lit(), SETTINGS, lambda fraction, text: heard.append((text, fraction)))
+    result = render(_lit(), replace(SETTINGS, denoise_prefilter=prefilter),
+                    lambda fraction, text: heard.append((text, fraction)))
     steps = [fraction for text, fraction in heard if text == "denoising"]
     assert len(steps) > 6 and steps[0] == 0.0 and 0.9 < steps[-1] <= 1.0
     assert steps == sorted(steps)
@@ -46,6 +48,15 @@ def test_esc_while_denoising_cancels(stop_at):
         render(_lit(), SETTINGS, progress)
     last = heard[-1]
     assert last[0] == "denoising" and stop_at <= last[1] < stop_at + 0.2
+
+
+def test_denoising_settings_are_cycles_names():
+    """A prefilter or quality that is not one of Cycles' names fails at once, naming the setting."""
+    from vpl_addon.progressive import ViewportSettings
+    with pytest.raises(ValueError, match="prefilter 'SLOW'"):
+        RenderSettings(denoise_prefilter="SLOW")
+    with pytest.raises(ValueError, match="quality 'high'"):
+        ViewportSettings(denoise_quality="high")
 
 
 def test_without_oidn_one_warning_and_the_picture_as_rendered(monkeypatch):

@@ -32,7 +32,8 @@ import numpy as np
 
 from .core import passes as P
 from .core.color import largest
-from .core.denoise import DenoiseCancelled, DenoiserMissing, denoise, available as denoiser_available
+from .core.denoise import DenoiseCancelled, DenoiserMissing, check as check_denoising, denoise, \
+    available as denoiser_available
 from .core.memory import trim_heap
 from .core.sampling import group_sum, pixel_nets
 from .core.tracer import Tracer
@@ -75,6 +76,9 @@ class RenderSettings:
     # Combined denoised by OIDN (``core.denoise``) guided by Denoising Albedo / Normal, as Cycles' render denoiser;
     # the light passes stay the estimates (as Cycles'), ``Noisy Image`` holds Combined before
     denoise: bool = False
+    # how: Cycles' Denoising Prefilter and Quality (``core.denoise``), its render denoiser's defaults
+    denoise_prefilter: str = "ACCURATE"
+    denoise_quality: str = "HIGH"
     threads: int | None = None  # CPU threads that trace and shade (None: every core); the pixels do not change
     mist: Mist = field(default_factory=Mist)  # the world's mist settings (the Mist pass)
     ao_distance: float = 10.0  # the world's AO distance (the Ambient Occlusion pass)
@@ -89,6 +93,7 @@ class RenderSettings:
             raise ValueError(f"indirect samples must be at least 1 (got {self.indirect_samples})")
         if self.method != "none" and self.method not in METHODS:
             raise ValueError(f"unknown method {self.method!r}; choose one of none, {', '.join(METHODS)}")
+        check_denoising(self.denoise_prefilter, self.denoise_quality)
         if self.placement.vpls < 1:
             raise ValueError(f"the VPL budget must be at least 1 (got {self.placement.vpls})")
         unknown = [p for p in self.passes if p not in P.CHANNELS]
@@ -117,8 +122,10 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
 
 
 def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None, progress,
-                     warnings: list[str], what: str = "the image") -> None:
-    """Combined's colour (H,W,4) denoised in place (``core.denoise``) with the guides (H,W,3), its progress told as
+                     warnings: list[str], what: str = "the image", prefilter: str = "ACCURATE",
+                     quality: str = "HIGH") -> None:
+    """Combined's colour (H,W,4) denoised in place (``core.denoise``, with Cycles' ``prefilter`` and ``quality``)
+    with the guides (H,W,3), its progress told as
     "denoising" (``progress`` may cancel it: ``Cancelled``); a black picture stays black (OIDN would leave traces of
     1e-6); without OIDN on this system, one warning in ``warnings`` and the image as it is."""
     if not combined[..., :3].any():
@@ -127,7 +134,7 @@ def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarra
     if told is not None and told(0.0) is False:
         raise Cancelled()
     try:
-        combined[..., :3] = denoise(combined[..., :3], albedo, normal, threads, told)
+        combined[..., :3] = denoise(combined[..., :3], albedo, normal, threads, told, prefilter, quality)
     except DenoiseCancelled:
         raise Cancelled() from None
     except DenoiserMissing as err:
@@ -409,7 +416,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         trim_heap()
         t0 = time.perf_counter()
         denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
-                         images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings)
+                         images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings,
+                         prefilter=settings.denoise_prefilter, quality=settings.denoise_quality)
         result.seconds["denoise"] = time.perf_counter() - t0
     result.rays, result.threads = tracer.rays_traced, tracer.threads
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want

@@ -4,8 +4,14 @@ render denoiser does it: the "RT" filter on the HDR colour, guided by the first 
 The guides are Cycles' ``Denoising Albedo`` (diffuse plus glossy colour plus emission, so that an emitter's edges
 are kept) and ``Denoising Normal`` (the shading normal in camera space, x right, y up, z forward), per pixel the mean
 over its samples. They are nearly noise-free here (no path is traced for them), but texture detail and anti-aliased
-edges make them differ from sample to sample, so they are prefiltered by OIDN first, as its documentation
+edges make them differ from sample to sample, so by default they are prefiltered by OIDN first, as its documentation
 recommends for guides that are not clean ("cleanAux").
+
+How, and at what cost, is Cycles' choice with Cycles' names (its render and viewport Denoising settings, and the
+compositor Denoise node's): the *prefilter* is ``ACCURATE`` (the guides denoised first, three filter runs), ``FAST``
+(one run that takes the guides as noisy) or ``NONE`` (one run that takes them as clean); the *quality* is OIDN's
+``HIGH`` (its large network with clean guides), ``BALANCED`` or ``FAST``. At 256 x 256 on 2 cores ``ACCURATE`` /
+``HIGH`` takes 0.72 s, ``FAST`` / ``HIGH`` 0.11 s (bench/README.md, "What the denoiser's settings cost").
 
 OIDN's network is not symmetric under a vertical flip (the same image upside down denoises 2-3 % differently, in
 rMAE), so the images go to it bottom row first, the way Blender holds images: a compositor Denoise node fed by our
@@ -25,6 +31,11 @@ import numpy as np
 # OIDN's scratch memory per filter run, in MB: above it OIDN denoises in overlapping tiles, with the same result. Left
 # to itself it takes 1.45 GB at 1920 x 1080 (and grows with the image); 1 GB costs 9 % more time there, 768 MB 50 %.
 SCRATCH_MB = 1024
+
+
+# Cycles' Denoising Prefilter and Denoising Quality (OIDN's ``OIDN_QUALITY_*``), best first
+PREFILTERS = ("ACCURATE", "FAST", "NONE")
+QUALITIES = ("HIGH", "BALANCED", "FAST")
 
 
 class DenoiserMissing(RuntimeError):
@@ -53,26 +64,40 @@ def available() -> bool:
 
 
 def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None = None,
-            progress: Callable[[float], bool] | None = None) -> np.ndarray:
-    """(H,W,3) float32 denoised HDR ``color`` (linear, non-negative) guided by ``albedo`` and ``normal`` (H,W,3),
-    which are prefiltered; rows top first, as the passes are; on ``threads`` CPU threads (None: OIDN's choice, every
-    core). ``progress(fraction)`` is called as OIDN works (three filter runs: the two guides, then the colour); False
-    stops it (``DenoiseCancelled``)."""
+            progress: Callable[[float], bool] | None = None, prefilter: str = "ACCURATE",
+            quality: str = "HIGH") -> np.ndarray:
+    """(H,W,3) float32 denoised HDR ``color`` (linear, non-negative) guided by ``albedo`` and ``normal`` (H,W,3);
+    rows top first, as the passes are; on ``threads`` CPU threads (None: OIDN's choice, every core), with Cycles'
+    ``prefilter`` and ``quality`` (``PREFILTERS``, ``QUALITIES``). ``progress(fraction)`` is called as OIDN works
+    (over its filter runs: with ``ACCURATE`` the two guides, then the colour); False stops it
+    (``DenoiseCancelled``)."""
+    check(prefilter, quality)
     oidn = _oidn()
     device = oidn.Device(oidn.OIDN_DEVICE_TYPE_CPU)
     if threads:
         device.set_int("numThreads", int(threads))
     device.commit()
+    level = getattr(oidn, f"OIDN_QUALITY_{quality}")
+    runs = 3 if prefilter == "ACCURATE" else 1
 
-    def part(index):  # the share of the whole that filter run ``index`` (of three) is
-        return None if progress is None else (lambda done: progress((index + done) / 3.0))
+    def part(index):  # the share of the whole that filter run ``index`` (of ``runs``) is
+        return None if progress is None else (lambda done: progress((index + done) / runs))
     try:
-        clean = {}
-        for index, (name, image) in enumerate((("albedo", albedo), ("normal", normal))):
-            clean[name] = _filtered(oidn, device, {name: _float3(image)}, part(index))
-        return _filtered(oidn, device, {"color": _float3(color), **clean}, part(2), hdr=True, clean_aux=True)[::-1]
+        guides = {"albedo": _float3(albedo), "normal": _float3(normal)}
+        if prefilter == "ACCURATE":
+            guides = {name: _filtered(oidn, device, {name: image}, part(index), level)
+                      for index, (name, image) in enumerate(guides.items())}
+        return _filtered(oidn, device, {"color": _float3(color), **guides}, part(runs - 1), level, hdr=True,
+                         clean_aux=prefilter != "FAST")[::-1]
     finally:
         device.release()
+
+
+def check(prefilter: str, quality: str) -> None:
+    """ValueError naming the setting unless ``prefilter`` and ``quality`` are Cycles' names."""
+    for what, value, names in (("prefilter", prefilter, PREFILTERS), ("quality", quality, QUALITIES)):
+        if value not in names:
+            raise ValueError(f"unknown denoising {what} {value!r}; choose one of {', '.join(names)}")
 
 
 @functools.cache
@@ -90,11 +115,11 @@ def _float3(image: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(np.nan_to_num(np.asarray(image, np.float32)[::-1, :, :3], nan=0.0, posinf=0.0))
 
 
-def _filtered(oidn, device, images: dict[str, np.ndarray], keep_going: Callable[[float], bool] | None = None,
-              **flags) -> np.ndarray:
-    """One RT filter run on ``images`` (OIDN input names: color, albedo, normal); its output has the shape of the
-    first. A guide given alone is denoised itself (OIDN's prefiltering of auxiliary images). ``keep_going(done)``
-    hears the run's progress (0 to 1) and stops it by returning False."""
+def _filtered(oidn, device, images: dict[str, np.ndarray], keep_going: Callable[[float], bool] | None,
+              quality: int, **flags) -> np.ndarray:
+    """One RT filter run on ``images`` (OIDN input names: color, albedo, normal) at OIDN's ``quality``; its output
+    has the shape of the first. A guide given alone is denoised itself (OIDN's prefiltering of auxiliary images).
+    ``keep_going(done)`` hears the run's progress (0 to 1) and stops it by returning False."""
     first = next(iter(images.values()))
     height, width = first.shape[:2]
     out = np.zeros_like(first)
@@ -116,6 +141,7 @@ def _filtered(oidn, device, images: dict[str, np.ndarray], keep_going: Callable[
         rt.set_image("output", out, oidn.OIDN_FORMAT_FLOAT3, width, height)
         for name, value in flags.items():
             rt.set_bool("cleanAux" if name == "clean_aux" else name, value)
+        rt.set_int("quality", quality)
         rt.set_int("maxMemoryMB", SCRATCH_MB)
         rt.commit()
         rt.execute()
