@@ -74,7 +74,7 @@ class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):
     bl_context = "render"
 
     SETTINGS = ("viewport_samples", "viewport_time_limit", "viewport_start_resolution", "viewport_denoise")
-    DENOISING = ("preview_denoising_prefilter", "preview_denoising_quality")
+    DENOISING = ("viewport_denoising_prefilter", "viewport_denoising_quality")
 
     def draw(self, context):
         self.layout.use_property_split = True

@@ -51,15 +51,16 @@ QUALITY_ITEMS = (  # Cycles' Denoising Quality (OpenImageDenoise's), in ``core.d
 )
 
 
-def _cycles_setting(name: str, items=None) -> dict:
+def _cycles_setting(name: str, items=None, cycles: str | None = None) -> dict:
     """``get`` and ``set`` of a setting of ours that shows, and renders with, the scene's Cycles setting of the same
-    name until it is set here, so a scene made for Cycles keeps its light paths and pixel filter; without Cycles,
-    Cycles' default. What the user sets is kept as the settings' custom property ``name``. ``items``: an enum's."""
+    name (or ``cycles``) until it is set here, so a scene made for Cycles keeps its light paths, pixel filter and
+    denoiser; without Cycles, Cycles' default. What the user sets is kept as the settings' custom property ``name``.
+    ``items``: an enum's."""
     def get(self):
         value = self.get(name)
         if value is not None:
             return value
-        value = getattr(getattr(self.id_data, "cycles", None), name, None)
+        value = getattr(getattr(self.id_data, "cycles", None), cycles or name, None)
         if value is None:
             value = self.bl_rna.properties[name].default
         return [item[0] for item in items].index(value) if items else value
@@ -182,14 +183,14 @@ class VPLGISettings(bpy.types.PropertyGroup):
     viewport_denoise: bpy.props.BoolProperty(
         name="Denoise", default=_VIEW.denoise,
         description="Rendered shading: denoise the image with OpenImageDenoise after each pass")
-    preview_denoising_prefilter: bpy.props.EnumProperty(
+    viewport_denoising_prefilter: bpy.props.EnumProperty(
         name="Prefilter", items=PREFILTER_ITEMS, default=_VIEW.denoise_prefilter,
-        **_cycles_setting("preview_denoising_prefilter", PREFILTER_ITEMS),
+        **_cycles_setting("viewport_denoising_prefilter", PREFILTER_ITEMS, "preview_denoising_prefilter"),
         description="Rendered shading: how the denoiser treats its albedo and normal guides (as Cycles' viewport "
                     "Denoise > Prefilter; until set here, the scene's Cycles value)")
-    preview_denoising_quality: bpy.props.EnumProperty(
+    viewport_denoising_quality: bpy.props.EnumProperty(
         name="Quality", items=QUALITY_ITEMS, default=_VIEW.denoise_quality,
-        **_cycles_setting("preview_denoising_quality", QUALITY_ITEMS),
+        **_cycles_setting("viewport_denoising_quality", QUALITY_ITEMS, "preview_denoising_quality"),
         description="Rendered shading: OpenImageDenoise's network (as Cycles' viewport Denoise > Quality; until set "
                     "here, the scene's Cycles value)")
     bake_directory: bpy.props.StringProperty(
@@ -222,8 +223,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
         """The progressive render of the 3D view's Rendered shading (``vpl_addon.progressive``)."""
         return ViewportSettings(start_resolution=self.viewport_start_resolution, samples=self.viewport_samples,
                                 time_limit=self.viewport_time_limit, denoise=self.viewport_denoise,
-                                denoise_prefilter=self.preview_denoising_prefilter,
-                                denoise_quality=self.preview_denoising_quality)
+                                denoise_prefilter=self.viewport_denoising_prefilter,
+                                denoise_quality=self.viewport_denoising_quality)
 
 
 def register():

@@ -149,7 +149,7 @@ def test_denoising_settings_follow_the_scenes_cycles_ones(ext):
     scene = bpy.context.scene
     ours, cycles = scene.vpl_gi, scene.cycles
     assert (ours.denoising_prefilter, ours.denoising_quality) == ("ACCURATE", "HIGH")
-    assert (ours.preview_denoising_prefilter, ours.preview_denoising_quality) == ("FAST", "BALANCED")
+    assert (ours.viewport_denoising_prefilter, ours.viewport_denoising_quality) == ("FAST", "BALANCED")
     cycles.denoising_prefilter, cycles.denoising_quality = "NONE", "FAST"
     cycles.preview_denoising_prefilter = "ACCURATE"
     settings, viewport = ours.render_settings(("Combined",)), ours.viewport_settings()

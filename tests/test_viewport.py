@@ -296,8 +296,12 @@ def test_viewport_settings_leave_bakes_alone(cornell):
     before = settings_key(scene)
     scene.vpl_gi.viewport_samples = 3
     scene.vpl_gi.viewport_start_resolution = 32
+    scene.vpl_gi.viewport_denoising_prefilter = "NONE"
     assert settings_key(scene) == before
     assert scene.vpl_gi.viewport_settings().start_resolution == 32
+    assert scene.vpl_gi.viewport_settings().denoise_prefilter == "NONE"
+    scene.vpl_gi.denoising_prefilter = "NONE"  # the render's does change the frames
+    assert settings_key(scene) != before
 
 
 DRAW = """
