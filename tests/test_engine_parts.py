@@ -67,6 +67,18 @@ def test_pixel_filter_tables_are_symmetric_and_within_support(kind, width, suppo
     assert np.allclose(table, -table[::-1], atol=1e-6)
 
 
+@pytest.mark.parametrize("kind", ["BOX", "BLACKMAN_HARRIS", "GAUSSIAN"])
+def test_filter_offsets_read_the_table_linearly(kind):
+    """The sub-pixel offsets are the filter's inverse CDF read linearly between its uniform steps, as np.interp
+    reads it, at the ends and on the steps too; numbers past [0, 1] take the ends."""
+    from dataclasses import replace
+    camera = replace(CAM, filter_type=kind, filter_width=1.5)
+    table = filter_inverse_cdf(kind, 1.5)
+    u = np.concatenate([np.random.default_rng(1).random(5000), np.linspace(0.0, 1.0, len(table)), [-0.5, 1.5]])
+    expected = np.interp(u, np.linspace(0.0, 1.0, len(table)), table)
+    np.testing.assert_allclose(camera.filter_offsets(u), expected, rtol=0, atol=1e-12)
+
+
 def test_perspective_rays_go_through_the_image_corners():
     o, d, _ = CAM.rays(np.array([0.0, 8.0]), np.array([0.0, 8.0]))
     x0, x1, y0, y1 = CAM.window
