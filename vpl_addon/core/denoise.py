@@ -7,11 +7,12 @@ over its samples. They are nearly noise-free here (no path is traced for them), 
 edges make them differ from sample to sample, so by default they are prefiltered by OIDN first, as its documentation
 recommends for guides that are not clean ("cleanAux").
 
-How, and at what cost, is Cycles' choice with Cycles' names (its render and viewport Denoising settings, and the
-compositor Denoise node's): the *prefilter* is ``ACCURATE`` (the guides denoised first, three filter runs), ``FAST``
-(one run that takes the guides as noisy) or ``NONE`` (one run that takes them as clean); the *quality* is OIDN's
-``HIGH`` (its large network with clean guides), ``BALANCED`` or ``FAST``. At 256 x 256 on 2 cores ``ACCURATE`` /
-``HIGH`` takes 0.72 s, ``FAST`` / ``HIGH`` 0.11 s (bench/README.md, "Latest (twentieth session): what the denoiser's settings cost").
+How, and at what cost, is chosen as in Cycles, with Cycles' names (its render and viewport Denoising settings, and
+the compositor Denoise node's): the *prefilter* is ``ACCURATE`` (the guides denoised first, three filter runs),
+``FAST`` (one run that takes the guides as noisy) or ``NONE`` (one run that takes them as clean); the *quality* is
+OIDN's ``HIGH`` (its large network with clean guides), ``BALANCED`` or ``FAST``. At 256 x 256 on 2 cores
+``ACCURATE`` / ``HIGH`` takes 0.72 s, ``FAST`` / ``HIGH`` 0.11 s (bench/README.md, "Latest (twentieth session):
+what the denoiser's settings cost").
 
 OIDN's network is not symmetric under a vertical flip (the same image upside down denoises 2-3 % differently, in
 rMAE), so the images go to it bottom row first, the way Blender holds images: a compositor Denoise node fed by our
