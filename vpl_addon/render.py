@@ -122,12 +122,11 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
 
 
 def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None, progress,
-                     warnings: list[str], what: str = "the image", prefilter: str = "ACCURATE",
-                     quality: str = "HIGH") -> None:
+                     warnings: list[str], what: str, prefilter: str, quality: str) -> None:
     """Combined's colour (H,W,4) denoised in place (``core.denoise``, with Cycles' ``prefilter`` and ``quality``)
-    with the guides (H,W,3), its progress told as
-    "denoising" (``progress`` may cancel it: ``Cancelled``); a black picture stays black (OIDN would leave traces of
-    1e-6); without OIDN on this system, one warning in ``warnings`` and the image as it is."""
+    with the guides (H,W,3), its progress told as "denoising" (``progress`` may cancel it: ``Cancelled``); a black
+    picture stays black (OIDN would leave traces of 1e-6); without OIDN on this system, one warning in ``warnings``
+    that names ``what`` is not denoised, and the image as it is."""
     if not combined[..., :3].any():
         return
     told = None if progress is None else (lambda done: progress(done, "denoising"))
@@ -417,7 +416,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         t0 = time.perf_counter()
         denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
                          images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings,
-                         prefilter=settings.denoise_prefilter, quality=settings.denoise_quality)
+                         "the image", settings.denoise_prefilter, settings.denoise_quality)
         result.seconds["denoise"] = time.perf_counter() - t0
     result.rays, result.threads = tracer.rays_traced, tracer.threads
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
