@@ -1,9 +1,9 @@
 """The numbers a pixel's samples share (``core.sampling.pixel_nets``): one scrambled Sobol net per pixel, dealt to
-its rows in random order, whatever order the rows come in."""
+its rows in random order, whatever order the rows come in; and keyed by the path (``core.sampling.PathNumbers``)."""
 import numpy as np
 import pytest
 
-from vpl_addon.core.sampling import pixel_nets, pixel_numbers
+from vpl_addon.core.sampling import PathNumbers, pixel_nets
 
 
 def _by_pixel(pixel, *arrays):
@@ -43,14 +43,28 @@ def test_nets_of_the_same_rows_are_independent_and_a_row_may_take_several():
     assert len(np.unique((u[8:, 0] * 8).astype(int))) == 3
 
 
-def test_pixel_numbers_come_in_pairs_of_one_net_or_free_without_pixels():
+def test_path_numbers_are_a_net_per_pixel_and_pair_and_keyed_by_the_path():
+    """``PathNumbers``: each pixel's 16 paths hold a net in every pair of dimensions, at every depth and stream;
+    a path's numbers are the same whichever other paths are asked for with it (so one path more or fewer changes
+    no other path's numbers), and its pairs, depths, streams and branches are independent of each other."""
     rng = np.random.default_rng(3)
-    pixel = np.repeat(np.arange(100), 4)
-    numbers = pixel_numbers(5, pixel, rng)
-    assert numbers.shape == (5, 400)
-    for first in (0, 2):  # dimensions (0, 1) and (2, 3): each pixel's 4 points one in each 2 x 2 box
-        box = (numbers[first] * 2).astype(int) * 2 + (numbers[first + 1] * 2).astype(int)
-        assert np.all(np.sort(box.reshape(100, 4), axis=1) == np.arange(4))
-    assert np.all(np.sort((numbers[4] * 4).astype(int).reshape(100, 4), axis=1) == np.arange(4))
-    assert pixel_numbers(3, None, rng, 7).shape == (3, 7)
+    pixel = rng.permutation(np.repeat(np.arange(500), 16))
+    paths = PathNumbers(pixel, rng)
+    every = np.arange(len(pixel))
+    numbers = paths.numbers(5, every, 0, 0, 0)
+    assert numbers.shape == (5, len(pixel)) and np.all((numbers >= 0.0) & (numbers < 1.0))
+    order = np.argsort(pixel, kind="stable")
+    for first in (0, 2):  # dimensions (0, 1) and (2, 3): each pixel's 16 points one in each 4 x 4 box
+        box = (numbers[first] * 4).astype(int) * 4 + (numbers[first + 1] * 4).astype(int)
+        assert np.all(np.sort(box[order].reshape(500, 16), axis=1) == np.arange(16))
+    assert np.all(np.sort((numbers[4][order] * 16).astype(int).reshape(500, 16), axis=1) == np.arange(16))
+    some = rng.choice(len(pixel), 1000, replace=False)
+    np.testing.assert_array_equal(paths.numbers(5, some, 0, 0, 0), numbers[:, some])
+    others = [paths.numbers(1, every, 0, 1, 0)[0], paths.numbers(1, every, 0, 0, 1)[0],
+              paths.numbers(1, every, 1, 0, 0)[0], numbers[2], numbers[4]]
+    for other in others:
+        assert abs(np.corrcoef(numbers[0], other)[0, 1]) < 0.03
+    other_block = PathNumbers(pixel, np.random.default_rng(4))  # another key: other numbers
+    assert abs(np.corrcoef(other_block.numbers(1, every, 0, 0, 0)[0], numbers[0])[0, 1]) < 0.03
     assert pixel_nets(np.zeros(0, int), 2, rng)[0].shape == (0, 2)
+    assert PathNumbers(np.zeros(0, int), rng).numbers(3, np.zeros(0, int), 0, 0, 0).shape == (3, 0)

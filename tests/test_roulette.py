@@ -50,7 +50,7 @@ def test_a_faint_coat_stops_paths_long_before_the_bounce_limit(monkeypatch):
     assert rays[8] < 1.6 * rays[2]
     light = result.passes["Diffuse Indirect"].mean()
 
-    def every_path(weight, rng):
+    def every_path(weight, rng, u=None):
         rows = np.nonzero(weight.max(axis=1) > 0.0)[0]
         return rows, np.ones(len(rows))
     monkeypatch.setattr(virtual_light_sampling, "roulette", every_path)

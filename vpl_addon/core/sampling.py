@@ -188,15 +188,6 @@ def pixel_nets(pixel: np.ndarray, per_row: int, rng: np.random.Generator) -> tup
     return _dealt(_ranks(pixel), per_row, rng)
 
 
-def pixel_numbers(count: int, pixel: np.ndarray | None, rng: np.random.Generator, rows: int = 0) -> np.ndarray:
-    """(count, R) uniform numbers for R sample points of the pixels ``pixel`` (R,), two by two from ``pixel_nets``;
-    independent ones for ``rows`` points if ``pixel`` is None."""
-    if pixel is None:
-        return rng.random((count, rows))
-    ranks = _ranks(pixel)
-    return np.concatenate([np.stack(_dealt(ranks, 1, rng))[:, :, 0] for _ in range((count + 1) // 2)])[:count]
-
-
 def _ranks(pixel: np.ndarray) -> tuple[np.ndarray, np.ndarray, int]:
     """(group, rank, groups): each row's pixel numbered 0, 1, ... and its place among that pixel's rows."""
     order = None if np.all(pixel[1:] >= pixel[:-1]) else np.argsort(pixel, kind="stable")
@@ -235,3 +226,82 @@ class LatinHypercube:
         if np.ndim(count):
             return self.rng.random(count)
         return (self.rng.permutation(count) + self.rng.random(count)) / max(count, 1)
+
+
+class PathNumbers:
+    """Uniform numbers of camera paths keyed by what they are for, not by when they are drawn: the numbers of a
+    path's vertex (its ``branch`` at ``depth``, where a path may branch into a diffuse and a metallic vertex) for a
+    ``stream`` of its sampling decisions depend on the block's key, the path's pixel and its slot among that pixel's
+    paths, and nothing else.
+
+    A generator's numbers depend on every draw before them: one path more or fewer at a vertex (a Russian roulette
+    decision that a 0.1 % change of a light's intensity flips) gives every later vertex of the block other numbers,
+    and a render of a slightly changed scene a new draw of its noise (a frame of a sequence; bench/README.md). Keyed
+    numbers keep the noise of every other path where it was, as Cycles' do (a pixel's numbers are a hash of the
+    pixel, the sample and the dimension).
+
+    Stratification is ``pixel_nets``': each (pixel, branch, depth, stream, pair of dimensions) has a 2D Sobol net of
+    as many points as the pixel has paths (the next power of two), digitally shifted by a hash, and a path takes the
+    point of its slot under a hashed permutation (different for every pair, so a path's pairs stay independent)."""
+
+    def __init__(self, pixel: np.ndarray, rng: np.random.Generator):
+        group, self.slot, _ = _ranks(pixel)
+        self.pixel = np.asarray(pixel, np.int64)
+        self.mask = (1 << int(self.slot.max(initial=0)).bit_length()) - 1
+        self.key = int(rng.integers(1 << 63))
+
+    def numbers(self, count: int, owner: np.ndarray, branch: np.ndarray, depth: int, stream: int) -> np.ndarray:
+        """(count, R) numbers for the vertices ``branch`` (R,) of the paths ``owner`` (R,) at ``depth``."""
+        out = np.empty((count + (count & 1), len(owner)))
+        _keyed_nets(np.uint64(self.key), self.pixel, self.slot, np.uint64(self.mask), owner,
+                    np.broadcast_to(np.asarray(branch, np.int64), np.shape(owner)), depth, stream, out)
+        return out[:count]
+
+    def generator(self, depth: int) -> np.random.Generator:
+        """A generator for the draws at ``depth`` that are not keyed: its numbers do not depend on other depths'."""
+        return np.random.default_rng([self.key, depth])
+
+
+@inline
+def _mix(z):
+    """A 64-bit integer hash (the finaliser of Steele et al.'s SplitMix64)."""
+    z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
+    z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
+    return z ^ (z >> np.uint64(31))
+
+
+@inline
+def _permuted(x, mask, h):
+    """x in [0, mask] moved by a bijection of [0, mask] chosen by the hash h: odd multiplications, additions and
+    xor-shifts, each invertible modulo a power of two."""
+    for r in range(3):
+        x = (x * ((h >> np.uint64(20 * r)) | np.uint64(1)) + (h >> np.uint64(20 * r + 7))) & mask
+        x = x ^ (x >> np.uint64(1 + r))
+    return x
+
+
+@kernel
+def _keyed_nets(key, pixel, slot, mask, owner, branch, depth, stream, out):
+    """``PathNumbers.numbers`` into ``out`` (2 x pairs, R)."""
+    scale = 1.0 / 4294967296.0
+    low = np.uint64(0xFFFFFFFF)
+    for i in range(len(owner)):
+        o = owner[i]
+        vertex = _mix(np.uint64(branch[i]) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(depth * 4096 + stream))
+        row = _mix(key ^ _mix(np.uint64(pixel[o]) * np.uint64(0xD6E8FEB86659FD93) ^ vertex))
+        for pair in range(out.shape[0] // 2):
+            h = _mix(row + np.uint64(pair) * np.uint64(0xD1B54A32D192ED03))
+            index = _permuted(np.uint64(slot[o]), mask, h)
+            x, y = np.uint64(0), np.uint64(0)
+            v = np.uint64(1 << 31)
+            for bit in range(32):
+                if index >> np.uint64(bit) == 0:
+                    break
+                if (index >> np.uint64(bit)) & np.uint64(1):
+                    x |= np.uint64(1 << (31 - bit))
+                    y ^= v
+                v ^= v >> np.uint64(1)
+            shift = _mix(h ^ np.uint64(0x632BE59BD9B4E019))
+            jitter = _mix(shift + np.uint64(slot[o]) + np.uint64(1))
+            out[2 * pair, i] = ((x ^ (shift & low)) + (jitter & low) * scale) * scale
+            out[2 * pair + 1, i] = ((y ^ (shift >> np.uint64(32))) + (jitter >> np.uint64(32)) * scale) * scale

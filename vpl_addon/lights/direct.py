@@ -42,8 +42,9 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     reflects toward the viewer (zero otherwise).
 
     Each light sample is one sample of a local light (chosen by the light tree) plus, if the world emits, one
-    cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2), each (K, samples) or None: the uniform
-    numbers for the local and the world samples, instead of independent ones. ``through``: a (K,3) array that
+    cosine-weighted sample of the world. ``numbers`` = (u1, u2, w1, w2[, c]), each (K, samples) or None: the
+    uniform numbers for the local and the world samples and for the local light's choice, instead of independent
+    ones. ``through``: a (K,3) array that
     takes the diffuse part of the light whose shadow ray went through glass (``materials.cutouts``), which Cycles
     counts as indirect (a transmission bounce); None leaves it in the first output."""
     k = len(surface)
@@ -56,9 +57,9 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     ns = surface.shading_normal
     step = max(1, RAYS_PER_BATCH // samples)
     # every sample's numbers drawn before the batches: how many batches there are does not change them
-    given = numbers or (None,) * 4
-    numbers_of = [rng.random(k * samples) if a is None else a.ravel() for a in given]
-    jitter = rng.random(k * samples) if lights.local else None
+    given = (tuple(numbers or ()) + (None,) * 5)[:5]
+    numbers_of = [rng.random(k * samples) if a is None else a.ravel() for a in given[:4]]
+    jitter = (rng.random(k * samples) if given[4] is None else given[4].ravel()) if lights.local else None
     for lo in range(0, k, step):
         hi = min(k, lo + step)
         owner = np.repeat(np.arange(hi - lo), samples)  # the point of each light sample, within the batch

@@ -28,6 +28,13 @@ class PathVertices:
     owner: np.ndarray  # (K,) the shading point each vertex adds to
     throughput: np.ndarray  # (K,3)
     lobe: GlossyLobe | None = None
+    # (K,) which of its path's vertices at this depth each one is: 2b for the diffuse continuation of vertex b, 2b + 1
+    # for the metallic one (a path branches at hits with both lobes); None: 0 for every vertex
+    branch: np.ndarray | None = None
+
+    @property
+    def branches(self) -> np.ndarray:
+        return np.zeros(len(self.owner), np.int64) if self.branch is None else self.branch
 
     def __len__(self):
         return len(self.owner)
@@ -63,35 +70,39 @@ def merged(vertices: list[PathVertices]) -> list[PathVertices]:
         elif part:
             out.append(PathVertices(Surface.concat([v.point for v in part]), np.concatenate([v.owner for v in part]),
                                     np.concatenate([v.throughput for v in part]),
-                                    GlossyLobe.concat([v.lobe for v in part]) if glossy else None))
+                                    GlossyLobe.concat([v.lobe for v in part]) if glossy else None,
+                                    np.concatenate([v.branches for v in part])))
     return out
 
 
-def roulette(weight: np.ndarray, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+def roulette(weight: np.ndarray, rng: np.random.Generator,
+             u: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Russian roulette (Arvo and Kirk 1990) on path vertices whose throughput with their own lobe's albedo is
     ``weight`` (K,3): (the rows that go on, 1/q for each of them), q = min(1, sqrt(max weight)), the probability
     with which Cycles continues a path (``path_state_continuation_probability``). Dividing the survivors'
     throughput by q keeps every estimate unbiased, while a path through a faint lobe (a clear coat's 4 %) stops
     early instead of branching on to the bounce limit. Only rows with 0 < q < 1 draw a number; q = 0 (or NaN)
-    stops."""
+    stops. ``u`` (K,): the rows' uniform numbers instead of the generator's."""
     q = np.minimum(np.sqrt(np.max(weight, axis=1, initial=0.0)), 1.0)
     live = q > 0.0
     doubt = np.nonzero(live & (q < 1.0))[0]
-    live[doubt] = rng.random(len(doubt)) < q[doubt]
+    live[doubt] = (rng.random(len(doubt)) if u is None else u[doubt]) < q[doubt]
     rows = np.nonzero(live)[0]
     return rows, 1.0 / q[rows]
 
 
 def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.ndarray, lights, tracer, rng,
-             out: np.ndarray) -> PathVertices:
-    """The hits ``rows`` of ``y`` as metallic vertices (``owner`` and ``throughput`` given per hit) that survive
+             out: np.ndarray, branch: np.ndarray | None = None) -> PathVertices:
+    """The hits ``rows`` of ``y`` as metallic vertices (``owner``, ``throughput`` and ``branch`` given per hit,
+    the branch of the vertex each hit came from; the new vertices are its metallic branches) that survive
     ``roulette`` on their throughput times their lobe's albedo (Glossy Color), their direct light through the lobe
     (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``, ``COAT_LIGHT_SAMPLES`` at a rough coat) added to
     ``out``."""
     lobe = GlossyLobe.of(y.take(rows))
     live, boost = roulette(throughput[rows] * lobe.color, rng)
     rows, lobe = rows[live], lobe.take(live)
-    metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe)
+    metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe,
+                         None if branch is None else 2 * branch[rows] + 1)
     coat = metal.point.rough_coat
     for part, samples in ((np.nonzero(~coat)[0], GLOSSY_LIGHT_SAMPLES), (np.nonzero(coat)[0], COAT_LIGHT_SAMPLES)):
         if len(part):

@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.compiled import kernel
+from ...core.morton import morton_codes
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
 SLAB = 0.005  # a light covers points within this many radii of its tangent plane: no share across thin walls
@@ -108,6 +109,7 @@ class PhotonLights:
     catchment: np.ndarray | None = None  # (N,) A_j, the surface area of the light's share; None: pi r_j^2
     by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
     grid: LightGrid | None = field(default=None, repr=False)
+    _tree: tuple | None = field(default=None, repr=False)  # ``tree``'s (box, order, codes), made once
 
     def __post_init__(self):
         self.position = np.ascontiguousarray(self.position, np.float64)
@@ -140,6 +142,16 @@ class PhotonLights:
         """(N,3) L_j = I_j / A_j of the light of at most ``bounces`` bounces."""
         area = np.pi * self.radius * self.radius if self.catchment is None else self.catchment
         return np.where(area[:, None] > 0.0, self.intensity_upto(bounces) / np.maximum(area, 1e-300)[:, None], 0.0)
+
+    def tree(self, box: tuple) -> tuple[np.ndarray, np.ndarray]:
+        """(order, codes): the lights in the order of their Morton codes in ``box`` (the scene's), and the codes
+        in that order: the binary radix tree of the codes (a node's lights share its leading bits) is the gather's
+        light tree (``virtual_light_sampling._descend``)."""
+        if self._tree is None or not all(np.array_equal(a, b) for a, b in zip(self._tree[0], box)):
+            codes = morton_codes(self.position, box)
+            order = np.argsort(codes, kind="stable")
+            self._tree = (tuple(np.array(b, np.float64) for b in box), order, codes[order])
+        return self._tree[1], self._tree[2]
 
     @property
     def _kernel_grid(self) -> tuple:
