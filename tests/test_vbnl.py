@@ -335,3 +335,22 @@ def test_fewer_candidates_than_pixels_come_from_the_whole_image():
     assert len(position) == 1024 and np.abs(position[:, 2]).max() < 1e-6
     for axis in (0, 1):
         assert 0.4 < np.mean(position[:, axis] > 0.0) < 0.6
+
+
+def test_lights_are_placed_where_they_were_when_the_view_is_the_same():
+    """vbnl's candidates and catchments draw from the camera's numbers (``MethodContext.camera_rng``, the same in
+    every frame of a sequence) and only its photons from the frame's (``rng``): two frames with their own numbers
+    and the camera's place their lights at the same points with the same catchments, and only the lights' light
+    differs; with the frame's numbers for everything the points differ (a new draw in every frame, which made a
+    denoised sequence flicker 2.5 times as much)."""
+    scene = lit_floor(PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3), max_bounces=2)
+    tracer = Tracer(scene.triangles)
+    settings = MethodSettings(vpls=64, vbnl=VBNLSettings(photons=8192))
+    placed = [place("vbnl", MethodContext(scene, tracer, LightSet(scene), np.random.default_rng(frame), 2, camera),
+                    settings)[0]
+              for frame, camera in ((1, np.random.default_rng(9)), (2, np.random.default_rng(9)), (2, None))]
+    tracer.close()
+    np.testing.assert_array_equal(placed[0].position, placed[1].position)
+    np.testing.assert_array_equal(placed[0].catchment, placed[1].catchment)
+    assert not np.array_equal(placed[0].intensity, placed[1].intensity)
+    assert not np.array_equal(placed[0].position, placed[2].position)

@@ -205,7 +205,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if need_indirect:
             t0 = time.perf_counter()
             placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
-            context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces)
+            context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces,
+                                    np.random.default_rng([settings.seed, 1 << 21]))
             if sequence is None:
                 vpls, result.info = place(settings.method, context, settings.placement)
             else:

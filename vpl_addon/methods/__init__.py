@@ -25,6 +25,10 @@ class MethodContext:
     lights: object  # LightSet
     rng: np.random.Generator
     max_bounces: int
+    # what a method draws from the camera's view (vbnl's candidates and their catchment): the pixels' numbers, the
+    # same in every frame of a sequence (``rng`` is the frame's), so a view that did not change places its lights
+    # where it did and a sequence's lights do not flicker; None: ``rng``
+    camera_rng: np.random.Generator | None = None
 
 
 @dataclass

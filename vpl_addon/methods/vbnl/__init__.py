@@ -18,7 +18,10 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
 
 In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
 (``sequence.path_verification``, Moreau et al.); the lights are placed and the photons split among them again in every
-frame in which something moved (the camera included).
+frame in which something moved (the camera included), the candidates and catchments with the camera's numbers
+(``MethodContext.camera_rng``, the same in every frame), so that where the view did not change the lights land where
+they were and only their light changes: with a new draw each frame, the denoised moving light flickered 2.5 times as
+much (bench/README.md).
 """
 from __future__ import annotations
 
@@ -74,15 +77,17 @@ class VBNLSettings:
 
 def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
     """What one BSDF-sampled ray from each point of ``x`` hits: the glossy lobe with its share of the point's
-    albedo (luminance of Glossy Color over it plus the diffuse albedo), the cosine-weighted diffuse lobe otherwise."""
+    albedo (luminance of Glossy Color over it plus the diffuse albedo), the cosine-weighted diffuse lobe otherwise.
+    Every point draws all its numbers, so how many take the glossy lobe does not change the other points' draws."""
     if not scene.materials.glossy:
         return diffuse_bounce(scene, tracer, x, rng)[0]
-    dirs, _ = cosine_hemisphere(rng.random(len(x)), rng.random(len(x)), x.shading_normal)
+    u = rng.random((5, len(x)))
+    dirs, _ = cosine_hemisphere(u[0], u[1], x.shading_normal)
     lobe = GlossyLobe.of(x)
     gloss = luminance(lobe.color)
     share = gloss / np.maximum(gloss + luminance(x.albedo), 1e-300)
-    shiny = np.nonzero(rng.random(len(x)) < share)[0]
-    dirs[shiny] = lobe.sample(rng.random(len(shiny)), rng.random(len(shiny)), shiny)[0]
+    shiny = np.nonzero(u[2] < share)[0]
+    dirs[shiny] = lobe.sample(u[3, shiny], u[4, shiny], shiny)[0]
     return bounce(scene, tracer, x, dirs)[0]
 
 
@@ -90,6 +95,8 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
     """(positions, normals) of ``count`` points seen from camera-path ends (sec. 3.1), the same number of camera
     samples in every pixel (or in a random subset of the pixels, below); normals face the point that found them.
     Rays that find nothing (an open scene) are made up by further passes over the image, at most ``passes`` in all.
+    Each batch of pixels draws from a generator of its own (seeded from ``rng`` and its place), so what one batch
+    found (a moving object's metal) does not change the numbers of the next.
 
     With fewer candidates to find than pixels, a pass takes the pixels in a random order and stops when it has
     found enough: a random subset of the image. Taking the first ``count`` found in pixel order had kept the top
@@ -98,21 +105,23 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
     cam = scene.camera
     pixels = cam.width * cam.height
     found_p, found_n, found = [], [], 0
-    for _ in range(passes):
+    seed = int(rng.integers(1 << 63))
+    for number in range(passes):
         spp = max(1, math.ceil((count - found) / pixels))
         order = rng.permutation(pixels) if spp == 1 else np.arange(pixels)
         step = max(1, PIXELS_PER_BATCH // spp)
         for lo in range(0, pixels, step):
             if spp == 1 and found >= count:
                 break
-            x = GBuffer.build(scene, tracer, order[lo:lo + step], spp, rng).surface
-            y = _bsdf_bounce(scene, tracer, x, rng)
+            batch = np.random.default_rng([seed, number, lo])
+            x = GBuffer.build(scene, tracer, order[lo:lo + step], spp, batch).surface
+            y = _bsdf_bounce(scene, tracer, x, batch)
             for _ in range(SPECULAR_EXTENSION):  # Fig. 6b: on metal, the camera path goes on
                 metal = (largest(y.albedo) == 0.0) & y.glossy
                 if not metal.any():
                     break
                 y = Surface.concat([y.take(np.nonzero(~metal)[0]),
-                                    _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), rng)])
+                                    _bsdf_bounce(scene, tracer, y.take(np.nonzero(metal)[0]), batch)])
             y = y.take(np.nonzero(largest(y.albedo) > 0.0)[0])  # lights hold diffusely reflected light only
             found_p.append(y.position)
             found_n.append(y.smooth_normal)
@@ -195,14 +204,17 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
             traced = follow(state.paths, own, motion, 0, settings.path_reuse, settings.path_threshold,
                             paths=s.photons)
             marks["light_paths"] = time.perf_counter()
-        position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls, context.rng)
+        view = context.camera_rng or context.rng  # the same in every frame of a sequence: steady lights
+        position, normal = candidates(context.scene, context.tracer, s.candidates * settings.vpls,
+                                      np.random.default_rng(view.integers(1 << 63)))
         marks["candidates"] = time.perf_counter()
-        kept = eliminate(position, settings.vpls, context.rng, mode=s.elimination, local=s.local,
+        kept = eliminate(position, settings.vpls, view, mode=s.elimination, local=s.local,
                          checkpoint=context.tracer.checkpoint)
         lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max,
                               np.zeros((len(kept.keep), 3)))
         marks["elimination"] = time.perf_counter()
-        lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples, context.rng)
+        lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples,
+                                     np.random.default_rng(view.integers(1 << 63)))
         marks["catchment"] = time.perf_counter()
         if context.tracer.threads > 1:  # the splitting waits for the photons: trace on every thread
             lanes.release(context.tracer.threads - 1)
