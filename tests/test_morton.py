@@ -1,7 +1,11 @@
-"""The Morton curve (``core.morton``): points near in its order are near in space."""
+"""The Morton curve (``methods.vbnl.morton``): points near in its order are near in space."""
 import numpy as np
 
-from vpl_addon.core.morton import morton_order
+from vpl_addon.methods.vbnl.morton import morton_codes
+
+
+def morton_order(points):
+    return np.argsort(morton_codes(points, (points.min(axis=0), points.max(axis=0))), kind="stable")
 
 
 def test_the_morton_order_visits_each_octant_and_sub_octant_in_one_run():
@@ -18,5 +22,13 @@ def test_the_morton_order_visits_each_octant_and_sub_octant_in_one_run():
     steps = np.linalg.norm(np.diff(ordered, axis=0), axis=1) / 0.1
     assert steps.mean() < 2.0
     assert np.linalg.norm(np.diff(points, axis=0), axis=1).mean() / 0.1 > 5.0
-    assert morton_order(np.zeros((0, 3))).shape == (0,)
+    assert morton_codes(np.zeros((0, 3)), (np.zeros(3), np.ones(3))).shape == (0,)
     assert morton_order(np.ones((3, 3))).tolist() == [0, 1, 2]  # one point three times: a flat box, order kept
+
+
+def test_codes_in_a_given_box_clamp_the_points_outside_it():
+    """Codes in the scene's box (the light tree's): a point outside takes the code of the nearest point inside, the
+    box's corners the least and the greatest codes."""
+    box = (np.zeros(3), np.ones(3))
+    codes = morton_codes(np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, -1.0, 0.5], [1.0, 0.0, 0.5]]), box)
+    assert codes[0] == 0 and codes[1] == (1 << 63) - 1 and codes[2] == codes[3]

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.compiled import kernel
-from ...core.morton import morton_codes
+from .morton import morton_codes
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
 SLAB = 0.005  # a light covers points within this many radii of its tangent plane: no share across thin walls

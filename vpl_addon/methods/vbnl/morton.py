@@ -1,0 +1,26 @@
+"""Morton (Z-order) codes: a point's leading bits name the octants of a box, one level after another, that hold it,
+so points sorted by code are near their neighbours in the order, and the binary radix tree of the sorted codes is a
+tree of boxes: the photon lights' tree down which the gather chooses a light (``virtual_light_sampling._descend``)."""
+from __future__ import annotations
+
+import numpy as np
+
+BITS = 21  # per axis: three of them fill a 63-bit code
+
+
+def _spread(x: np.ndarray) -> np.ndarray:
+    """The ``BITS`` low bits of each of ``x`` (uint64) moved to every third bit."""
+    x = x & np.uint64((1 << BITS) - 1)
+    for shift, mask in ((32, 0x1F00000000FFFF), (16, 0x1F0000FF0000FF), (8, 0x100F00F00F00F00F),
+                        (4, 0x10C30C30C30C30C3), (2, 0x1249249249249249)):
+        x = (x | (x << np.uint64(shift))) & np.uint64(mask)
+    return x
+
+
+def morton_codes(points: np.ndarray, box: tuple) -> np.ndarray:
+    """(N,) uint64 Morton codes of ``points`` (N,3) in ``box`` = (lo, hi); points outside it are clamped to it."""
+    points = np.asarray(points, np.float64).reshape(-1, 3)
+    lo, hi = np.asarray(box[0], np.float64), np.asarray(box[1], np.float64)
+    unit = np.clip((points - lo) / np.maximum(hi - lo, 1e-300), 0.0, 1.0)
+    q = (unit * ((1 << BITS) - 1)).astype(np.uint64)
+    return _spread(q[:, 0]) | (_spread(q[:, 1]) << np.uint64(1)) | (_spread(q[:, 2]) << np.uint64(2))
