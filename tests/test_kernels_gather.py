@@ -16,6 +16,7 @@ from vpl_addon.materials.surface import Surface, diffuse_cosine
 from vpl_addon.methods.vbnl.photon_lights import PhotonLights
 from vpl_addon.methods.vbnl import virtual_light_sampling
 from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
+from vpl_addon.methods.vbnl.morton import radix_tree
 from vpl_addon.methods.vbnl.virtual_light_sampling import _descend
 from vpl_addon.methods.vbnl.virtual_light_sampling import gather as sampled_gather
 from vpl_addon.paths import vertices
@@ -334,22 +335,26 @@ def test_the_light_tree_draws_by_power_and_changes_few_draws_when_the_lights_cha
 
     def cdf(p):
         return np.r_[0.0, np.cumsum(p / p.sum())]
+
+    def descend(p, code, u):
+        return _descend(cdf(p), *radix_tree(code), u)
     u = rng.random((len(power).bit_length() + 4, 400_000))
-    drawn = _descend(cdf(power), code, u)
+    drawn = descend(power, code, u)
     share = np.bincount(drawn, minlength=len(power)) / u.shape[1]
     assert share[::7].sum() == 0.0
     expected = power / power.sum()
     assert np.abs(share - expected).sum() < 0.05  # the sampling noise of 400,000 draws is about 0.035
-    assert np.abs(np.bincount(_descend(cdf(power), code, u[:2]), minlength=len(power)) / u.shape[1]
+    assert np.abs(np.bincount(descend(power, code, u[:2]), minlength=len(power)) / u.shape[1]
                   - expected).sum() < 0.05  # two numbers, rescaled below: the same probabilities
     changed = power * (1.0 + 0.01 * rng.standard_normal(len(power)))
-    again = _descend(cdf(changed), code, u)
+    again = descend(changed, code, u)
     variation = 0.5 * np.abs(changed / changed.sum() - expected).sum()
     assert (again != drawn).mean() < 3.0 * variation
     inverted = [np.minimum(np.searchsorted(cdf(p)[1:], u[0], side="right"), len(p) - 1) for p in (power, changed)]
     assert (inverted[0] != inverted[1]).mean() > 5.0 * (again != drawn).mean()
     kept = np.delete(np.arange(len(power)), 500)
-    without = kept[_descend(cdf(power[kept]), code[kept], u)]
+    without = kept[descend(power[kept], code[kept], u)]
     assert (without != drawn).mean() < 0.005
-    assert _descend(np.array([0.0, 1.0]), code[:1], u[:1, :5]).tolist() == [0] * 5  # one light
-    assert set(_descend(np.array([0.0, 0.0, 1.0]), np.zeros(2, np.uint64), u[:1]).tolist()) == {1}  # no power
+    one = tuple(np.zeros(0, np.int64) for _ in range(5))
+    assert _descend(np.array([0.0, 1.0]), *one, u[:1, :5]).tolist() == [0] * 5  # one light
+    assert set(descend(np.array([0.0, 1.0]), np.zeros(2, np.uint64), u[:1]).tolist()) == {1}  # no power: never

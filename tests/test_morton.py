@@ -1,7 +1,7 @@
 """The Morton curve (``methods.vbnl.morton``): points near in its order are near in space."""
 import numpy as np
 
-from vpl_addon.methods.vbnl.morton import morton_codes
+from vpl_addon.methods.vbnl.morton import morton_codes, radix_tree
 
 
 def morton_order(points):
@@ -32,3 +32,29 @@ def test_codes_in_a_given_box_clamp_the_points_outside_it():
     box = (np.zeros(3), np.ones(3))
     codes = morton_codes(np.array([[0.0, 0.0, 0.0], [1.0, 1.0, 1.0], [2.0, -1.0, 0.5], [1.0, 0.0, 0.5]]), box)
     assert codes[0] == 0 and codes[1] == (1 << 63) - 1 and codes[2] == codes[3]
+
+
+def test_the_radix_tree_splits_each_node_where_its_codes_first_differ():
+    """Every internal node's codes share the bits above the one its split turns on (codes equal: halved by count),
+    its children cover its range, and every code is one leaf."""
+    rng = np.random.default_rng(2)
+    code = np.sort(np.r_[rng.choice(1 << 20, 300, replace=False), [7, 7, 7]]).astype(np.uint64)
+    lo, hi, mid, left, right = radix_tree(code)
+    assert len(lo) == len(code) - 1 and lo[0] == 0 and hi[0] == len(code)
+    leaves = []
+    for k in range(len(lo)):
+        a, b, m = lo[k], hi[k], mid[k]
+        assert a < m < b
+        diff = int(code[a] ^ code[b - 1])
+        if diff:
+            top = 1 << (diff.bit_length() - 1)
+            assert not any(int(c) & top for c in code[a:m]) and all(int(c) & top for c in code[m:b])
+        else:
+            assert m == (a + b) // 2
+        for child, first, last in ((left[k], a, m), (right[k], m, b)):
+            if child < 0:
+                assert last - first == 1 and -1 - child == first
+                leaves.append(first)
+            else:
+                assert (lo[child], hi[child]) == (first, last)
+    assert sorted(leaves) == list(range(len(code)))

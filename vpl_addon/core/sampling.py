@@ -257,6 +257,14 @@ class PathNumbers:
                     np.broadcast_to(np.asarray(branch, np.int64), np.shape(owner)), depth, stream, out)
         return out[:count]
 
+    def independent(self, count: int, owner: np.ndarray, branch: np.ndarray, depth: int, stream: int) -> np.ndarray:
+        """(count, R) numbers keyed as ``numbers``', each independent of the others (no nets: a third of the
+        cost, for draws a net would not help, such as the levels of a tree descended one number a level)."""
+        out = np.empty((count + (count & 1), len(owner)))
+        _keyed_independent(np.uint64(self.key), self.pixel, self.slot, owner,
+                           np.broadcast_to(np.asarray(branch, np.int64), np.shape(owner)), depth, stream, out)
+        return out[:count]
+
     def generator(self, depth: int) -> np.random.Generator:
         """A generator for the draws at ``depth`` that are not keyed: its numbers do not depend on other depths'."""
         return np.random.default_rng([self.key, depth])
@@ -280,6 +288,27 @@ def _permuted(x, mask, h):
     return x
 
 
+@inline
+def _vertex_key(key, pixel, branch, depth, stream):
+    """The hash of a (pixel, branch, depth, stream) under the block's key."""
+    vertex = _mix(np.uint64(branch) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(depth * 4096 + stream))
+    return _mix(key ^ _mix(np.uint64(pixel) * np.uint64(0xD6E8FEB86659FD93) ^ vertex))
+
+
+@kernel
+def _keyed_independent(key, pixel, slot, owner, branch, depth, stream, out):
+    """``PathNumbers.independent`` into ``out`` (2 x pairs, R): two 32-bit numbers from each hash."""
+    scale = 1.0 / 4294967296.0
+    for i in range(len(owner)):
+        o = owner[i]
+        row = _vertex_key(key, pixel[o], branch[i], depth, stream)
+        row ^= np.uint64(slot[o]) * np.uint64(0xA0761D6478BD642F)
+        for pair in range(out.shape[0] // 2):
+            z = _mix(row + np.uint64(pair + 1) * np.uint64(0xE7037ED1A0B428DB))
+            out[2 * pair, i] = (z >> np.uint64(32)) * scale
+            out[2 * pair + 1, i] = (z & np.uint64(0xFFFFFFFF)) * scale
+
+
 @kernel
 def _keyed_nets(key, pixel, slot, mask, owner, branch, depth, stream, out):
     """``PathNumbers.numbers`` into ``out`` (2 x pairs, R)."""
@@ -287,8 +316,7 @@ def _keyed_nets(key, pixel, slot, mask, owner, branch, depth, stream, out):
     low = np.uint64(0xFFFFFFFF)
     for i in range(len(owner)):
         o = owner[i]
-        vertex = _mix(np.uint64(branch[i]) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(depth * 4096 + stream))
-        row = _mix(key ^ _mix(np.uint64(pixel[o]) * np.uint64(0xD6E8FEB86659FD93) ^ vertex))
+        row = _vertex_key(key, pixel[o], branch[i], depth, stream)
         for pair in range(out.shape[0] // 2):
             h = _mix(row + np.uint64(pair) * np.uint64(0xD1B54A32D192ED03))
             index = _permuted(np.uint64(slot[o]), mask, h)

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.compiled import kernel
-from .morton import morton_codes
+from .morton import morton_codes, radix_tree
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
 SLAB = 0.005  # a light covers points within this many radii of its tangent plane: no share across thin walls
@@ -143,14 +143,15 @@ class PhotonLights:
         area = np.pi * self.radius * self.radius if self.catchment is None else self.catchment
         return np.where(area[:, None] > 0.0, self.intensity_upto(bounces) / np.maximum(area, 1e-300)[:, None], 0.0)
 
-    def tree(self, box: tuple) -> tuple[np.ndarray, np.ndarray]:
-        """(order, codes): the lights in the order of their Morton codes in ``box`` (the scene's), and the codes
-        in that order: the binary radix tree of the codes (a node's lights share its leading bits) is the gather's
-        light tree (``virtual_light_sampling._descend``)."""
+    def tree(self, box: tuple) -> tuple[np.ndarray, tuple]:
+        """(order, nodes): the lights in the order of their Morton codes in ``box`` (the scene's), and the binary
+        radix tree of the codes in that order (``morton.radix_tree``; a node's lights share its codes' leading bits,
+        so it holds near lights): the gather's light tree (``virtual_light_sampling._descend``). Made once."""
         if self._tree is None or not all(np.array_equal(a, b) for a, b in zip(self._tree[0], box)):
             codes = morton_codes(self.position, box)
             order = np.argsort(codes, kind="stable")
-            self._tree = (tuple(np.array(b, np.float64) for b in box), order, codes[order])
+            nodes = radix_tree(codes[order]) if len(order) > 1 else tuple(np.zeros(0, np.int64) for _ in range(5))
+            self._tree = (tuple(np.array(b, np.float64) for b in box), order, nodes)
         return self._tree[1], self._tree[2]
 
     @property
