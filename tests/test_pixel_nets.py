@@ -68,3 +68,19 @@ def test_path_numbers_are_a_net_per_pixel_and_pair_and_keyed_by_the_path():
     assert abs(np.corrcoef(other_block.numbers(1, every, 0, 0, 0)[0], numbers[0])[0, 1]) < 0.03
     assert pixel_nets(np.zeros(0, int), 2, rng)[0].shape == (0, 2)
     assert PathNumbers(np.zeros(0, int), rng).numbers(3, np.zeros(0, int), 0, 0, 0).shape == (3, 0)
+
+
+def test_independent_path_numbers_are_keyed_uniform_and_uncorrelated():
+    """``PathNumbers.independent``: keyed as the nets are (a subset of the paths gets the same numbers), uniform,
+    and uncorrelated from one row to the next and with the nets' numbers."""
+    rng = np.random.default_rng(5)
+    pixel = np.repeat(np.arange(2000), 8)
+    paths = PathNumbers(pixel, rng)
+    every = np.arange(len(pixel))
+    numbers = paths.independent(5, every, 0, 1, 3)
+    assert numbers.shape == (5, len(pixel)) and np.all((numbers >= 0.0) & (numbers < 1.0))
+    np.testing.assert_allclose(np.sort(numbers[2]), (np.arange(len(pixel)) + 0.5) / len(pixel), atol=0.02)
+    some = np.arange(0, len(pixel), 5)
+    np.testing.assert_array_equal(paths.independent(5, some, 0, 1, 3), numbers[:, some])
+    for other in (numbers[1], numbers[4], paths.numbers(1, every, 0, 1, 3)[0], paths.independent(1, every, 1, 1, 3)[0]):
+        assert abs(np.corrcoef(numbers[0], other)[0, 1]) < 0.03
