@@ -15,8 +15,9 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
 
 The state pickles (without its tracer), so a bake saves it after every frame and an interrupted bake resumes from
 the last finished frame with exactly the state an uninterrupted bake would have had. Frame ``f`` places its lights
-with ``frame_seed(seed, f)`` (``RenderSettings.placement_seed``) and samples its pixels with ``seed``: its random
-numbers do not depend on where the bake started, and the pixel noise does not flicker.
+with ``frame_seed(seed, f)`` (``RenderSettings.placement_seed``) and samples its pixels with ``seed``, as does what a
+method draws from the camera's view (``MethodContext.camera_rng``: vbnl's candidates): its random numbers do not
+depend on where the bake started, and the pixel noise and the lights' places do not flicker.
 """
 from __future__ import annotations
 

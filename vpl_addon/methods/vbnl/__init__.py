@@ -20,8 +20,8 @@ In a sequence the photons' light paths are kept from frame to frame and verified
 (``sequence.path_verification``, Moreau et al.); the lights are placed and the photons split among them again in every
 frame in which something moved (the camera included), the candidates and catchments with the camera's numbers
 (``MethodContext.camera_rng``, the same in every frame), so that where the view did not change the lights land where
-they were and only their light changes: with a new draw each frame, the denoised moving light flickered 2.5 times as
-much (bench/README.md).
+they were and only their light changes (one of the three changes that made the denoised moving light's bake flicker
+2.5 times less, bench/README.md "Steady draws").
 """
 from __future__ import annotations
 

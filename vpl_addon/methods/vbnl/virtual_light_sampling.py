@@ -205,7 +205,7 @@ def _descend(cdf, lo, hi, mid, left, right, u):
     placed again around a moving object) changes the nodes above it, not the rest of the tree, since the tree is
     split by the codes, not by counts. In the moving light's example a 1 cm move of the lamp changed Diffuse
     Indirect by 1.0 % with the inverted cumulative power, 0.55 % with the tree, 0.52 % with the choice kept as it
-    was (bench/README.md)."""
+    was (bench/README.md, "Steady draws")."""
     levels = u.shape[0]
     out = np.zeros(u.shape[1], np.int64)
     if len(lo) == 0:  # one light
