@@ -32,8 +32,9 @@ from .motion import Motion, Snapshot
 
 # The layout of the pickled state and of every method's state in it: raised whenever one of them gains, loses or
 # changes a field, so a state saved by an earlier engine is refused (the bake starts cold) rather than failing on a
-# missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas.
-STATE_FORMAT = 2
+# missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas. 3: vbnl's
+# photon lights keep their light tree (``PhotonLights.tree``).
+STATE_FORMAT = 3
 
 
 def frame_seed(seed: int, frame: int) -> int:
