@@ -271,8 +271,9 @@ class PathNumbers:
 
 
 @inline
-def _mix(z):
-    """A 64-bit integer hash (the finaliser of Steele et al.'s SplitMix64)."""
+def mix64(z):
+    """A 64-bit integer hash, bijective (the finaliser of Steele et al.'s SplitMix64); compiled into the kernels that
+    call it."""
     z = (z ^ (z >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
     z = (z ^ (z >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
     return z ^ (z >> np.uint64(31))
@@ -291,8 +292,8 @@ def _permuted(x, mask, h):
 @inline
 def _vertex_key(key, pixel, branch, depth, stream):
     """The hash of a (pixel, branch, depth, stream) under the block's key."""
-    vertex = _mix(np.uint64(branch) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(depth * 4096 + stream))
-    return _mix(key ^ _mix(np.uint64(pixel) * np.uint64(0xD6E8FEB86659FD93) ^ vertex))
+    vertex = mix64(np.uint64(branch) * np.uint64(0x9E3779B97F4A7C15) + np.uint64(depth * 4096 + stream))
+    return mix64(key ^ mix64(np.uint64(pixel) * np.uint64(0xD6E8FEB86659FD93) ^ vertex))
 
 
 @kernel
@@ -304,7 +305,7 @@ def _keyed_independent(key, pixel, slot, owner, branch, depth, stream, out):
         row = _vertex_key(key, pixel[o], branch[i], depth, stream)
         row ^= np.uint64(slot[o]) * np.uint64(0xA0761D6478BD642F)
         for pair in range(out.shape[0] // 2):
-            z = _mix(row + np.uint64(pair + 1) * np.uint64(0xE7037ED1A0B428DB))
+            z = mix64(row + np.uint64(pair + 1) * np.uint64(0xE7037ED1A0B428DB))
             out[2 * pair, i] = (z >> np.uint64(32)) * scale
             out[2 * pair + 1, i] = (z & np.uint64(0xFFFFFFFF)) * scale
 
@@ -318,7 +319,7 @@ def _keyed_nets(key, pixel, slot, mask, owner, branch, depth, stream, out):
         o = owner[i]
         row = _vertex_key(key, pixel[o], branch[i], depth, stream)
         for pair in range(out.shape[0] // 2):
-            h = _mix(row + np.uint64(pair) * np.uint64(0xD1B54A32D192ED03))
+            h = mix64(row + np.uint64(pair) * np.uint64(0xD1B54A32D192ED03))
             index = _permuted(np.uint64(slot[o]), mask, h)
             x, y = np.uint64(0), np.uint64(0)
             v = np.uint64(1 << 31)
@@ -329,7 +330,7 @@ def _keyed_nets(key, pixel, slot, mask, owner, branch, depth, stream, out):
                     x |= np.uint64(1 << (31 - bit))
                     y ^= v
                 v ^= v >> np.uint64(1)
-            shift = _mix(h ^ np.uint64(0x632BE59BD9B4E019))
-            jitter = _mix(shift + np.uint64(slot[o]) + np.uint64(1))
+            shift = mix64(h ^ np.uint64(0x632BE59BD9B4E019))
+            jitter = mix64(shift + np.uint64(slot[o]) + np.uint64(1))
             out[2 * pair, i] = ((x ^ (shift & low)) + (jitter & low) * scale) * scale
             out[2 * pair + 1, i] = ((y ^ (shift >> np.uint64(32))) + (jitter >> np.uint64(32)) * scale) * scale

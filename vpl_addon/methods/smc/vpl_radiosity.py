@@ -17,6 +17,7 @@ import numpy as np
 
 from ...core.color import largest
 from ...core.compiled import kernel
+from ...core.sampling import mix64
 from ...lights.direct import direct_light
 from ...materials.surface import Surface, diffuse_bounce
 
@@ -43,23 +44,15 @@ _OFFSET, _COUNTER = np.uint64(0x632BE59BD9B4E019), np.uint64(0xD1B54A32D192ED03)
 
 
 @kernel
-def _mix(x):
-    """SplitMix64's finaliser: a bijective scramble of a 64-bit integer."""
-    x = (x ^ (x >> np.uint64(30))) * np.uint64(0xBF58476D1CE4E5B9)
-    x = (x ^ (x >> np.uint64(27))) * np.uint64(0x94D049BB133111EB)
-    return x ^ (x >> np.uint64(31))
-
-
-@kernel
 def _vertex_numbers(seeds, vpl, sample, depth, vertices, seed):
     """(len(vpl), NUMBERS_PER_VERTEX): the numbers of vertex ``depth`` of path sample[i] of the VPL vpl[i]."""
     out = np.empty((len(vpl), NUMBERS_PER_VERTEX))
     salt = np.uint64(seed & 0xFFFFFFFF) * _SEED_MIX + _OFFSET
     for i in range(len(vpl)):
-        key = _mix(np.uint64(seeds[vpl[i]]) * _GOLDEN + salt)
+        key = mix64(np.uint64(seeds[vpl[i]]) * _GOLDEN + salt)
         first = (sample[i] * vertices + depth) * NUMBERS_PER_VERTEX
         for j in range(NUMBERS_PER_VERTEX):
-            bits = _mix(key + np.uint64(first + j) * _COUNTER)
+            bits = mix64(key + np.uint64(first + j) * _COUNTER)
             out[i, j] = np.float64(bits >> np.uint64(11)) * (1.0 / 9007199254740992.0)
     return out
 
