@@ -141,25 +141,35 @@ def sample_cdf(cdf: np.ndarray, u: np.ndarray) -> np.ndarray:
 
 @functools.cache
 def _sobol_net(count: int) -> tuple[np.ndarray, np.ndarray]:
-    """The first ``count`` points of ``_sobol_02`` as 32-bit integers (read only)."""
-    x, y = (a.astype(np.uint32) for a in _sobol_02(np.arange(count)))
+    """The first ``count`` points of ``_sobol_point`` as 32-bit integers (read only)."""
+    x, y = np.empty(count, np.uint64), np.empty(count, np.uint64)
+    _sobol_points(np.arange(count, dtype=np.uint64), x, y)
+    x, y = x.astype(np.uint32), y.astype(np.uint32)
     x.flags.writeable = y.flags.writeable = False
     return x, y
 
 
-def _sobol_02(index: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The first two dimensions of Sobol's sequence as 32-bit integers: van der Corput (bit reversal) and the
-    Pascal-matrix dimension. Any 2^m consecutive-from-zero points form a (0, m, 2)-net."""
-    idx = index.astype(np.uint64)
-    x = np.zeros(idx.shape, np.uint64)
-    y = np.zeros(idx.shape, np.uint64)
+@inline
+def _sobol_point(index):
+    """The first two dimensions of Sobol's sequence at ``index`` as 32-bit integers: van der Corput (bit reversal)
+    and the Pascal-matrix dimension. Any 2^m consecutive-from-zero points form a (0, m, 2)-net."""
+    x, y = np.uint64(0), np.uint64(0)
     v = np.uint64(1 << 31)
     for bit in range(32):
-        on = ((idx >> np.uint64(bit)) & np.uint64(1)).astype(bool)
-        x = np.where(on, x | np.uint64(1 << (31 - bit)), x)
-        y = np.where(on, y ^ v, y)
-        v = v ^ (v >> np.uint64(1))
+        if index >> np.uint64(bit) == 0:
+            break
+        if (index >> np.uint64(bit)) & np.uint64(1):
+            x |= np.uint64(1 << (31 - bit))
+            y ^= v
+        v ^= v >> np.uint64(1)
     return x, y
+
+
+@kernel
+def _sobol_points(index, x, y):
+    """x[i], y[i] = ``_sobol_point(index[i])``."""
+    for i in range(len(index)):
+        x[i], y[i] = _sobol_point(index[i])
 
 
 def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
@@ -245,7 +255,7 @@ class PathNumbers:
     point of its slot under a hashed permutation (different for every pair, so a path's pairs stay independent)."""
 
     def __init__(self, pixel: np.ndarray, rng: np.random.Generator):
-        group, self.slot, _ = _ranks(pixel)
+        _, self.slot, _ = _ranks(pixel)
         self.pixel = np.asarray(pixel, np.int64)
         self.mask = (1 << int(self.slot.max(initial=0)).bit_length()) - 1
         self.key = int(rng.integers(1 << 63))
@@ -320,16 +330,7 @@ def _keyed_nets(key, pixel, slot, mask, owner, branch, depth, stream, out):
         row = _vertex_key(key, pixel[o], branch[i], depth, stream)
         for pair in range(out.shape[0] // 2):
             h = mix64(row + np.uint64(pair) * np.uint64(0xD1B54A32D192ED03))
-            index = _permuted(np.uint64(slot[o]), mask, h)
-            x, y = np.uint64(0), np.uint64(0)
-            v = np.uint64(1 << 31)
-            for bit in range(32):
-                if index >> np.uint64(bit) == 0:
-                    break
-                if (index >> np.uint64(bit)) & np.uint64(1):
-                    x |= np.uint64(1 << (31 - bit))
-                    y ^= v
-                v ^= v >> np.uint64(1)
+            x, y = _sobol_point(_permuted(np.uint64(slot[o]), mask, h))
             shift = mix64(h ^ np.uint64(0x632BE59BD9B4E019))
             jitter = mix64(shift + np.uint64(slot[o]) + np.uint64(1))
             out[2 * pair, i] = ((x ^ (shift & low)) + (jitter & low) * scale) * scale
