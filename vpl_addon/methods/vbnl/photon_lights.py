@@ -109,7 +109,7 @@ class PhotonLights:
     catchment: np.ndarray | None = None  # (N,) A_j, the surface area of the light's share; None: pi r_j^2
     by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
     grid: LightGrid | None = field(default=None, repr=False)
-    _tree: tuple | None = field(default=None, repr=False)  # ``tree``'s (box, order, codes), made once
+    _tree: tuple | None = field(default=None, repr=False)  # ``tree``'s (box, order, nodes), made once
 
     def __post_init__(self):
         self.position = np.ascontiguousarray(self.position, np.float64)
