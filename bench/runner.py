@@ -76,9 +76,11 @@ def _vpl_count(settings: RenderSettings, n: int) -> RenderSettings:
 
 
 def _vbnl_samples(settings: RenderSettings, n: int) -> RenderSettings:
+    """Samples as a user raises them: ``n`` camera samples with one gather pair each (vbnl's default)."""
     vbnl = settings.placement.vbnl
-    vbnl = dataclasses.replace(vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=n))
-    return dataclasses.replace(settings, placement=dataclasses.replace(settings.placement, vbnl=vbnl))
+    vbnl = dataclasses.replace(vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=0))
+    return dataclasses.replace(settings, samples=n,
+                               placement=dataclasses.replace(settings.placement, vbnl=vbnl))
 
 
 VPL_COUNT = Knob("vpls", (64, 256, 1024, 4096, 16384, 65536), (64, 256), _vpl_count)
@@ -86,7 +88,7 @@ SAMPLES = Knob("spp", (1, 4, 16, 64, 256, 1024, 4096), (1, 4))
 # Method -> budget knob. Engine methods not listed here sweep the VPL count; a method with another knob (a photon
 # count, its own samples per pixel) gets an entry here with an ``apply`` that sets it on RenderSettings.
 KNOBS: dict[str, Knob] = {CYCLES: SAMPLES, OIDN: SAMPLES}
-if "vbnl" in METHODS:  # Li et al.: a fixed set of lights, sampled with more (BSDF + light) sample pairs per pixel
+if "vbnl" in METHODS:  # Li et al.: a fixed set of lights, sampled with more camera samples and (BSDF + light) pairs
     KNOBS["vbnl"] = Knob("samples", (1, 4, 16, 64, 256), (1, 4), _vbnl_samples)
 
 

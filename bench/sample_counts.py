@@ -3,7 +3,9 @@ by the bench for the best error at equal time rather than fixed"; issue 26: dire
 
 Each scene renders with its own settings (the default method and its budget), denoised as F12 does, over a grid of
 camera samples x light samples per camera sample, for several seeds; a row gives the mean wall time of ``render`` and
-the mean rMAE of Combined against the scene's converged Cycles reference, denoised and as rendered (``Noisy Image``).
+the mean rMAE of Combined against the scene's converged Cycles reference, denoised and as rendered (``Noisy Image``),
+then the denoised one's rMAE in 4 x 4 blocks and, where the scene has a twin reference, its clean rRMSE (both
+references' noise taken out; ``evaluation.metrics.clean_rrmse``).
 
     .venv/bin/python bench/sample_counts.py [cornell_area,cornell_sun,...] [--samples 16,64] [--light-samples 1,2,4,8]
         [--pairs 16,64] [--seeds 2] [--percentage 50]
@@ -36,20 +38,22 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", default="4,16,64", help="camera samples per pixel, comma-separated")
     ap.add_argument("--light-samples", default="1,2,4,8", help="light samples per camera sample, comma-separated")
     ap.add_argument("--pairs", default=None, help="vbnl's sample pairs per pixel, comma-separated (default: the "
-                    "scene's)")
+                    "scene's; 0: one per camera sample)")
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--percentage", type=int, default=None, help="render (and reference) resolution percentage")
     ap.add_argument("--reference-samples", type=int, default=1024)
     args = ap.parse_args(argv)
-    print("| scene | camera x light samples | vbnl pairs | seconds | rMAE denoised | rMAE as rendered |")
-    print("| --- | --- | --- | --- | --- | --- |")
+    print("| scene | camera x light samples | vbnl pairs | seconds | rMAE denoised | rMAE as rendered | block rMAE | "
+          "clean rRMSE |")
+    print("| --- | --- | --- | --- | --- | --- | --- | --- |")
     for name in args.scenes.split(","):
         blend = blend_path(name)
         register_extension()
         import bpy
-        from vpl_gi.bench.runner import Options, engine_run, reference_for
+        from vpl_gi.bench.runner import TWIN_SEED, Options, engine_run, find_reference, reference_for
         from vpl_gi.vpl_addon.core import passes as P
-        from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask, errors
+        from vpl_gi.vpl_addon.core.exr import read_passes
+        from vpl_gi.vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors
         from vpl_gi.vpl_addon.render import render
         options = Options([], [], {}, "")
         bpy.ops.wm.open_mainfile(filepath=blend)
@@ -57,6 +61,8 @@ def main(argv=None) -> int:
         reference, _ = reference_for(blend, pct, options.reference_dir, options.cache_dir, args.reference_samples,
                                      print)
         scene = load_scene(blend, pct)
+        twin = find_reference(blend, pct, options.reference_dir, TWIN_SEED)
+        twin = read_passes(twin)[0][P.COMBINED] if twin else None
         reference = reference[P.COMBINED]
         mask = coverage_mask(reference[..., 3], reference.shape[:2])
         base = dataclasses.replace(bpy.context.scene.vpl_gi.render_settings((P.COMBINED, P.NOISY_IMAGE)),
@@ -73,11 +79,14 @@ def main(argv=None) -> int:
                 settings = dataclasses.replace(base, samples=samples, light_samples=light_samples, seed=seed,
                                                placement=placement)
                 wall, result, _ = engine_run(scene, settings)
-                rows.append((wall, errors(result.passes[P.COMBINED], reference, mask)["rmae"],
-                             errors(result.passes[P.NOISY_IMAGE], reference, mask)["rmae"]))
-            wall, denoised, noisy = np.mean(rows, axis=0)
-            print(f"| {name} | {samples} x {light_samples} | {pairs} | {wall:.2f} | {denoised:.4f} | {noisy:.4f} |",
-                  flush=True)
+                image = result.passes[P.COMBINED]
+                found = errors(image, reference, mask)
+                clean = clean_rrmse(image, reference, twin, mask) if twin is not None else np.nan
+                rows.append((wall, found["rmae"], errors(result.passes[P.NOISY_IMAGE], reference, mask)["rmae"],
+                             found["rmae4"], clean))
+            wall, denoised, noisy, blocks, clean = np.mean(rows, axis=0)
+            print(f"| {name} | {samples} x {light_samples} | {pairs or samples} | {wall:.2f} | {denoised:.4f} | {noisy:.4f} | "
+                  f"{blocks:.4f} | {clean:.4f} |", flush=True)
     return 0
 
 

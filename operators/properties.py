@@ -115,8 +115,9 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
         description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother")
     vbnl_samples: bpy.props.IntProperty(
-        name="Gather Samples", default=_VBNL.sampling.samples, min=1, soft_max=1024,
-        description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each)")
+        name="Gather Samples", default=_VBNL.sampling.samples, min=0, soft_max=1024,
+        description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each); 0 = one per "
+                    "camera sample, so Samples alone sets the render's quality")
     elimination: bpy.props.EnumProperty(
         name="Sample Elimination", default=_VBNL.elimination,
         items=(("adaptive", "Adaptive", "Blue noise that keeps the density the camera asks for (eq. 2)"),

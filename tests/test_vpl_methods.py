@@ -137,3 +137,28 @@ def test_methods_light_a_floor_under_a_lamp_like_each_other(method):
                                             gather=GatherSettings(interleave=1, clamp=0.0), seed=9)).passes
     assert np.isfinite(image).all() and (image >= 0).all()
     assert image.mean() == pytest.approx(expected["Combined"][..., 0].mean(), rel=0.1)
+
+
+def test_vbnl_gathers_one_pair_per_camera_sample_unless_told_otherwise():
+    """Gather Samples 0 (the default) gives the gather one pair per camera sample, so Samples alone raises the
+    render's quality: the same image, to the bit, as that number of pairs set by hand, and not the image of
+    another number. A negative number is refused."""
+    from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
+    wall = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
+    base = plane_scene([PointLight("p", [0, 0.5, 1], [100.0] * 3)], size=5, view=1.0, res=8)
+    scene = Scene.build(np.concatenate([base.triangles, wall]), base.materials, base.lights, base.camera,
+                        max_bounces=2)
+
+    def indirect(samples, pairs):
+        vbnl = VBNLSettings(photons=1 << 13, sampling=SamplingSettings(samples=pairs))
+        settings = RenderSettings(samples=samples, light_samples=0, placement=MethodSettings(vpls=256, vbnl=vbnl),
+                                  passes=("Combined", "Diffuse Indirect"))
+        return render(scene, settings).passes["Diffuse Indirect"]
+
+    assert SamplingSettings().samples == 0
+    auto = indirect(6, 0)
+    np.testing.assert_array_equal(auto, indirect(6, 6))
+    assert np.isfinite(auto).all() and auto.mean() > 0.0
+    assert not np.array_equal(auto, indirect(6, 2))
+    with pytest.raises(ValueError, match="gather samples"):
+        VBNLSettings(sampling=SamplingSettings(samples=-1))

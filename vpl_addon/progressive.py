@@ -44,6 +44,7 @@ import numpy as np
 
 from .core import passes as P
 from .core.denoise import check as check_denoising
+from .methods import METHODS
 from .render import Cancelled, RenderSettings, denoise_combined, render
 from .sequence.state import SequenceState
 
@@ -90,13 +91,14 @@ def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str
                   denoise=False, passes=tuple(dict.fromkeys((P.COMBINED,) + tuple(passes))),
                   placement_seed=settings.seed)
     vbnl = settings.placement.vbnl
+    pairs = METHODS["vbnl"].gather_samples(settings.placement, settings.samples)
 
     def budget(name):
         share = BUDGETS[name]
         vpls, photons = settings.placement.vpls, vbnl.photons
         return replace(settings.placement, vpls=min(vpls, max(64, vpls // share)),
                        vbnl=replace(vbnl, photons=min(photons, max(4096, photons // share)), sampling=replace(
-                           vbnl.sampling, samples=min(vbnl.sampling.samples, 1 if name == "preview" else 4))))
+                           vbnl.sampling, samples=min(pairs, 1 if name == "preview" else 4))))
     coarse = replace(one, block_pixels=PREVIEW_BLOCK_PIXELS)
     pixel = -(-max(size) // viewport.start_resolution)
     steps = [Step("preview", pixel, replace(coarse, placement=budget("preview")), "preview")]

@@ -240,7 +240,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if sampled is None:
             gather_spp, repeats = min(settings.indirect_samples, settings.samples), 1
         else:  # the method's sample pairs per pixel, spread over the camera samples
-            pairs = METHODS[settings.method].gather_samples(settings.placement)
+            pairs = METHODS[settings.method].gather_samples(settings.placement, settings.samples)
             gather_spp = min(pairs, settings.samples)
             repeats = -(-pairs // gather_spp)
 

@@ -6,7 +6,7 @@ or Blender's side.
 bounce limit and random generator, and ``info`` is a dict of figures worth reporting (paths traced, shares...).
 Lights that are summed (VPLs) go to the one interleaved ``gather``; a method whose lights are sampled instead
 (``vbnl``'s photon lights) brings its own ``gather(surface, lights, context, settings, rng)`` and
-``gather_samples(settings)``, the sample pairs per pixel."""
+``gather_samples(settings, camera_samples)``, the sample pairs per pixel."""
 from __future__ import annotations
 
 from dataclasses import dataclass, field

@@ -14,7 +14,7 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    tracer's threads after them, share the intensity of every vertex among the lights covering it, kept apart by
    bounce so that an extended camera path uses only light of as many fewer bounces as it has extra vertices (the
    scene's bounce limit holds for the whole path).
-``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``samples`` times per pixel.
+``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``gather_samples`` times per pixel.
 
 In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
 (``sequence.path_verification``, Moreau et al.); the lights are placed and the photons split among them again in every
@@ -71,8 +71,9 @@ class VBNLSettings:
     def __post_init__(self):
         if self.elimination not in MODES:
             raise ValueError(f"unknown sample elimination {self.elimination!r}; choose one of {', '.join(MODES)}")
-        if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 1:
-            raise ValueError("vbnl needs candidates >= 1, photons >= 0 and samples >= 1")
+        if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 0:
+            raise ValueError("vbnl needs candidates >= 1, photons >= 0 and gather samples >= 0 (0: one per camera "
+                             "sample)")
 
 
 def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
@@ -291,9 +292,9 @@ def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
     return splitting.total()
 
 
-def gather_samples(settings) -> int:
-    """Sample pairs per pixel the gather takes."""
-    return settings.vbnl.sampling.samples
+def gather_samples(settings, camera_samples: int) -> int:
+    """Sample pairs per pixel the gather takes: the setting, or one per camera sample where it is 0."""
+    return settings.vbnl.sampling.samples or camera_samples
 
 
 def gather(surface, lights, context, settings, rng, glossy=None, pixel=None):
