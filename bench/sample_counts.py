@@ -85,8 +85,8 @@ def main(argv=None) -> int:
                 rows.append((wall, found["rmae"], errors(result.passes[P.NOISY_IMAGE], reference, mask)["rmae"],
                              found["rmae4"], clean))
             wall, denoised, noisy, blocks, clean = np.mean(rows, axis=0)
-            print(f"| {name} | {samples} x {light_samples} | {pairs or samples} | {wall:.2f} | {denoised:.4f} | {noisy:.4f} | "
-                  f"{blocks:.4f} | {clean:.4f} |", flush=True)
+            print(f"| {name} | {samples} x {light_samples} | {pairs or samples} | {wall:.2f} | {denoised:.4f} | "
+                  f"{noisy:.4f} | {blocks:.4f} | {clean:.4f} |", flush=True)
     return 0
 
 
