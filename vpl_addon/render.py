@@ -57,7 +57,9 @@ class Cancelled(Exception):
 class RenderSettings:
     # camera samples per pixel (G-buffer) and next-event samples per camera sample for direct light: 16 x 2, chosen
     # by ``bench/sample_counts.py`` (bench/README.md, "Camera and light samples"): with the render denoised, the
-    # VPLs' indirect light is the picture's error, and 64 x 8 took 1.4-4.1x as long for the same rMAE
+    # VPLs' indirect light is the picture's error, and 64 x 8 took 1.4-4.1x as long for the same rMAE. vbnl gathers
+    # one sample pair per camera sample unless told otherwise, so ``samples`` is the render's one quality knob
+    # (bench/README.md, "One knob")
     samples: int = 16
     light_samples: int = 2
     seed: int = 0
