@@ -472,7 +472,8 @@ def parser() -> argparse.ArgumentParser:
                    help="budgets of one method (VPL count; samples per pixel for cycles), or of every engine "
                         "method without METHOD=; repeatable")
     b.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's; --quick: 25)")
-    b.add_argument("--samples", type=int, help="engine camera samples per pixel (default: the scene's; --quick: 2)")
+    b.add_argument("--samples", type=int, help="engine camera samples per pixel (default: the scene's; --quick: 2); "
+                   "vbnl's budget is its camera samples, so its runs take theirs from --budgets")
     b.add_argument("--light-samples", type=int, help="engine light samples (default: the scene's; --quick: 2)")
     b.add_argument("--denoising-prefilter", type=str.upper, choices=PREFILTERS,
                    help="the denoised engine runs' prefilter, as Cycles' (default: the scene's setting; Cycles + "
