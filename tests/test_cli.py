@@ -41,6 +41,22 @@ def test_vbnl_settings_reach_the_engine_from_the_command_line(tmp_path):
     assert "vbnl 300 VPLs, 5000 light paths" in stdout
 
 
+def test_gather_samples_follow_the_samples_until_set(ext):
+    """The render panel's Gather Samples is 0 until set: vbnl then gathers one pair per camera sample, so a user
+    who raises Samples (as in Cycles) raises the indirect light's samples too; a number set by hand holds."""
+    import bpy
+    from vpl_addon.methods.vbnl import gather_samples
+    settings = bpy.context.scene.vpl_gi
+    assert settings.vbnl_samples == 0 and settings.samples == 16
+    settings.samples = 48
+    built = settings.render_settings(("Combined",))
+    assert gather_samples(built.placement, built.samples) == 48
+    settings.vbnl_samples = 8
+    built = settings.render_settings(("Combined",))
+    assert gather_samples(built.placement, built.samples) == 8
+    settings.samples, settings.vbnl_samples = 16, 0
+
+
 def test_smc_warmup_draws_reach_the_engine_and_are_checked(ext, tmp_path):
     import bpy
     settings = bpy.context.scene.vpl_gi
