@@ -49,7 +49,8 @@ def block_error(image: np.ndarray, reference: np.ndarray, k: int) -> float:
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("scene", nargs="?", default="cornell_area")
-    p.add_argument("--pairs", type=_ints, default=[64], help="vbnl's sample pairs (the bench's knob)")
+    p.add_argument("--pairs", type=_ints, default=[64],
+                   help="vbnl's sample pairs per pixel, at the scene's camera samples")
     p.add_argument("--photons", type=_ints, default=[0], help="vbnl's photon paths (0: the scene's)")
     p.add_argument("--vpls", type=_ints, default=[0], help="the VPL budget (0: the scene's)")
     p.add_argument("--seed", type=int, default=0)
