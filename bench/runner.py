@@ -247,6 +247,13 @@ def find_reference(blend: str, percentage: int | None, folder: str, seed: int = 
     return max(found)[1] if found else None
 
 
+def twin_for(blend: str, percentage: int | None, folder: str) -> tuple[str | None, np.ndarray | None]:
+    """The twin reference of ``blend`` in ``folder`` (``find_reference`` with ``TWIN_SEED``) and its Combined, or
+    (None, None): what ``clean_rrmse`` needs beside the reference."""
+    path = find_reference(blend, percentage, folder, TWIN_SEED)
+    return path, (read_passes(path)[0][P.COMBINED] if path else None)
+
+
 def reference_for(blend: str, percentage: int | None, reference_dir: str, cache_dir: str, samples: int,
                   say: Callable[[str], None]) -> tuple[dict, str]:
     path = find_reference(blend, percentage, reference_dir)
@@ -452,9 +459,9 @@ class Bench:
         ref_alpha = reference[P.COMBINED][..., 3]
         h, w = ref_alpha.shape
         mask = coverage_mask(ref_alpha, (h, w))
-        twin = find_reference(blend, pct, self.o.reference_dir, TWIN_SEED)
-        self.say(f"{label}: {w}x{h}, reference {source}" + (f", twin {os.path.relpath(twin)}" if twin else ""))
-        twin = read_passes(twin)[0][P.COMBINED] if twin else None
+        twin_path, twin = twin_for(blend, pct, self.o.reference_dir)
+        self.say(f"{label}: {w}x{h}, reference {source}" +
+                 (f", twin {os.path.relpath(twin_path)}" if twin_path else ""))
 
         def judge(images: dict, passes) -> dict:
             found = {name: errors(images[name], reference[name], pass_mask(name, reference, mask)) for name in passes}

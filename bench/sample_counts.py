@@ -53,9 +53,8 @@ def main(argv=None) -> int:
         blend = blend_path(name)
         register_extension()
         import bpy
-        from vpl_gi.bench.runner import TWIN_SEED, Options, engine_run, find_reference, reference_for
+        from vpl_gi.bench.runner import Options, engine_run, reference_for, twin_for
         from vpl_gi.vpl_addon.core import passes as P
-        from vpl_gi.vpl_addon.core.exr import read_passes
         from vpl_gi.vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors
         from vpl_gi.vpl_addon.render import render
         options = Options([], [], {}, "")
@@ -64,8 +63,7 @@ def main(argv=None) -> int:
         reference, _ = reference_for(blend, pct, options.reference_dir, options.cache_dir, args.reference_samples,
                                      print)
         scene = load_scene(blend, pct)
-        twin = find_reference(blend, pct, options.reference_dir, TWIN_SEED)
-        twin = read_passes(twin)[0][P.COMBINED] if twin else None
+        _, twin = twin_for(blend, pct, options.reference_dir)
         reference = reference[P.COMBINED]
         mask = coverage_mask(reference[..., 3], reference.shape[:2])
         base = dataclasses.replace(bpy.context.scene.vpl_gi.render_settings((P.COMBINED, P.NOISY_IMAGE)),
