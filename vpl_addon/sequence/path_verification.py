@@ -71,6 +71,29 @@ def segments_crossing_boxes(origin: np.ndarray, direction: np.ndarray, length: n
     return crossing
 
 
+class PathRows:
+    """The rows of a table of path vertices or segments by their (path, bounce), sorted once and searched as often
+    as asked: ``_verify`` looks up every bounce's segments in tables whose keys do not change while it runs (sorting
+    about 600,000 keys a lookup had been a quarter of a baked frame's time, bench/README.md)."""
+
+    def __init__(self, path: np.ndarray, bounce: np.ndarray):
+        keys = _key(path, bounce)
+        self.order = np.argsort(keys, kind="stable")
+        self.keys = keys[self.order]
+
+    def find(self, path: np.ndarray, bounce: np.ndarray) -> np.ndarray:
+        """Row of each (path, bounce), -1 where there is none."""
+        if len(self.order) == 0:
+            return np.full(len(path), -1, np.int64)
+        wanted = _key(path, bounce)
+        at = np.minimum(np.searchsorted(self.keys, wanted), len(self.order) - 1)
+        return np.where(self.keys[at] == wanted, self.order[at], -1)
+
+
+def _key(path: np.ndarray, bounce: np.ndarray) -> np.ndarray:
+    return path.astype(np.int64) * 4096 + bounce
+
+
 class LightPathStore:
     """The segments and VPLs of light paths (VPL intensities divided by ``paths``, the number of paths the
     estimator averages over, which stays the same from frame to frame), and each path's light."""
@@ -101,23 +124,13 @@ class LightPathStore:
             self.light = np.concatenate([self.light, np.full(next_id - len(self.light), -1, np.int64)])
         self.next_id = max(self.next_id, next_id)
 
-    @staticmethod
-    def _lookup(path, bounce, key_path, key_bounce):
-        """Row of (key_path, key_bounce) equal to each (path, bounce), -1 where there is none."""
-        if len(key_path) == 0:
-            return np.full(len(path), -1, np.int64)
-        keys = key_path.astype(np.int64) * 4096 + key_bounce
-        order = np.argsort(keys)
-        at = np.minimum(np.searchsorted(keys[order], path.astype(np.int64) * 4096 + bounce), len(order) - 1)
-        return np.where(keys[order][at] == path.astype(np.int64) * 4096 + bounce, order[at], -1)
-
     def _segments(self, recorded, vpls):
         """The recorded segments, each with its length to the VPL of its (path, bounce), or inf if it left."""
         if not recorded:
             return None
         origin, direction, power, path, bounce = (np.concatenate(a) for a in zip(*recorded))
         length = np.full(len(path), np.inf)
-        at = self._lookup(path, bounce, vpls.path, vpls.bounce)
+        at = PathRows(vpls.path, vpls.bounce).find(path, bounce)
         found = at >= 0
         length[found] = np.linalg.norm(vpls.position[at[found]] - origin[found], axis=1)
         return dict(origin=origin, direction=direction, power=power, path=path.astype(np.int64),
@@ -240,10 +253,12 @@ class LightPathStore:
         pending = np.nonzero(moved & (seg["bounce"] == first[seg["path"]]))[0]
         restart, restart_hits = [], []  # the segments to trace again from, and their hits (already traced)
         extent = float(np.linalg.norm(np.subtract(*scene.bounds))) if threshold > 0.0 else 0.0
+        if len(pending) and threshold > 0.0:  # the keys stay as they are until the paths are traced again below
+            vpl_rows, segment_rows = PathRows(self.vpls.path, self.vpls.bounce), PathRows(seg["path"], seg["bounce"])
         while len(pending) and threshold > 0.0:
             origin, direction = seg["origin"][pending], seg["direction"][pending]
             hits = tracer.intersect(origin, direction)
-            at = self._lookup(seg["path"][pending], seg["bounce"][pending], self.vpls.path, self.vpls.bounce)
+            at = vpl_rows.find(seg["path"][pending], seg["bounce"][pending])
             rows = np.nonzero(hits.hit & (at >= 0))[0]
             surf = shade(scene, direction, hits, rows)
             # the next segment leaves the new end in its old direction (Algorithm 1, lines 7-10, with the sampled
@@ -251,8 +266,7 @@ class LightPathStore:
             # where the normal is the same: elsewhere the path is traced again. Whether a tail is kept must not
             # depend on where the tail went (which way it leaves, whether it hit), or the kept paths favour some
             # outcomes: the energy compared is the vertex's own, incident power x albedo
-            after = self._lookup(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1, seg["path"],
-                                 seg["bounce"])
+            after = segment_rows.find(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1)
             old_dir = seg["direction"][np.maximum(after, 0)]
             new_energy = seg["power"][pending[rows]] * surf.albedo * arrival_factor(surf)[:, None]
             old_energy = self.vpls.intensity[at[rows]] * (np.pi * self.paths)
