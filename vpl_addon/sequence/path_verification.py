@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..core.color import largest
+from ..core.compiled import kernel
 from ..core.sampling import dot
 from ..core.tracer import Hits
 from ..gather.virtual_lights import VirtualLights
@@ -52,23 +53,35 @@ def segments_crossing_boxes(origin: np.ndarray, direction: np.ndarray, length: n
                             boxes: list[tuple[np.ndarray, np.ndarray]], margin: float = 0.0) -> np.ndarray:
     """Segments origin + t direction, 0 <= t <= length (inf: a ray), that touch any of the axis-aligned boxes
     (slab test, boxes grown by ``margin``)."""
-    crossing = np.zeros(len(origin), bool)
-    if len(origin) == 0:
-        return crossing
-    with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / direction
-        for lo, hi in boxes:
-            lo, hi = np.asarray(lo, np.float64) - margin, np.asarray(hi, np.float64) + margin
-            t1, t2 = (lo - origin) * inv, (hi - origin) * inv
-            near = np.where(np.isnan(t1), -np.inf, np.minimum(t1, t2))  # 0 * inf: inside the slab's plane
-            far = np.where(np.isnan(t2), np.inf, np.maximum(t1, t2))
-            parallel = direction == 0.0
-            inside = (origin >= lo) & (origin <= hi)
-            near = np.where(parallel, np.where(inside, -np.inf, np.inf), near)
-            far = np.where(parallel, np.where(inside, np.inf, -np.inf), far)
-            enter, leave = near.max(axis=1), far.min(axis=1)
-            crossing |= (enter <= leave) & (leave >= 0.0) & (enter <= length)
-    return crossing
+    if len(origin) == 0 or not boxes:
+        return np.zeros(len(origin), bool)
+    lo = np.array([np.asarray(b[0], np.float64) - margin for b in boxes]).reshape(-1, 3)
+    hi = np.array([np.asarray(b[1], np.float64) + margin for b in boxes]).reshape(-1, 3)
+    return _crossing(np.ascontiguousarray(origin, np.float64), np.ascontiguousarray(direction, np.float64),
+                     np.ascontiguousarray(length, np.float64), lo, hi)
+
+
+@kernel
+def _crossing(origin, direction, length, lo, hi):
+    """``segments_crossing_boxes`` over the boxes (lo, hi): per segment and box, the interval of t inside all
+    three slabs; a direction parallel to a slab is inside it everywhere or nowhere."""
+    out = np.zeros(len(origin), np.bool_)
+    for i in range(len(origin)):
+        for b in range(len(lo)):
+            enter, leave = -np.inf, np.inf
+            for a in range(3):
+                o, d = origin[i, a], direction[i, a]
+                if d == 0.0:
+                    if o < lo[b, a] or o > hi[b, a]:
+                        enter, leave = np.inf, -np.inf
+                    continue
+                inv = 1.0 / d
+                t1, t2 = (lo[b, a] - o) * inv, (hi[b, a] - o) * inv
+                enter, leave = max(enter, min(t1, t2)), min(leave, max(t1, t2))
+            if enter <= leave and leave >= 0.0 and enter <= length[i]:
+                out[i] = True
+                break
+    return out
 
 
 class PathRows:
@@ -311,12 +324,14 @@ class LightPathStore:
                       for b in np.unique(again["bounce"]) for r in [np.nonzero(again["bounce"] == b)[0]]]
         else:
             groups = [(starts, None)]
-        for start, start_hits in groups:  # trace_paths continues from one common bounce
-            recorded, record = self._recorder()
-            vpls = trace_paths(scene, tracer, lights, 0, rng, max_bounces, start=start, record=record,
-                               start_hits=start_hits)
-            vpls = vpls.scaled(1.0 / max(self.paths, 1))
-            self._append(vpls, self._segments(recorded, vpls))
+        if not groups:
+            return
+        recorded, record = self._recorder()  # one record and one append: each copies every kept segment
+        vpls = VirtualLights.concat([trace_paths(scene, tracer, lights, 0, rng, max_bounces, start=start,
+                                                 record=record, start_hits=start_hits)
+                                     for start, start_hits in groups])  # each from one common bounce
+        vpls = vpls.scaled(1.0 / max(self.paths, 1))
+        self._append(vpls, self._segments(recorded, vpls))
 
     def lights(self) -> VirtualLights:
         return self.vpls
