@@ -219,9 +219,10 @@ class LightPathStore:
         starts = self._distribute(refill, dropped, rng)
         if starts is None and not moved.any():
             return 0
-        keep = ~dropped[self.segments["path"]]
-        moved = moved[keep]
-        self._keep(keep, ~dropped[self.vpls.path])
+        if dropped.any():  # (a copy of every segment otherwise)
+            keep = ~dropped[self.segments["path"]]
+            moved = moved[keep]
+            self._keep(keep, ~dropped[self.vpls.path])
         restarted = self._verify(scene, tracer, lights, moved, max_bounces, threshold, rng)
         filled = 0
         if starts is not None:
