@@ -11,7 +11,7 @@ from vpl_addon.methods import MethodSettings
 from vpl_addon.paths.light_paths import trace_until
 from vpl_addon.render import RenderSettings, render
 from vpl_addon.sequence.motion import Motion, Snapshot
-from vpl_addon.sequence.path_verification import LightPathStore, segments_crossing_boxes
+from vpl_addon.sequence.path_verification import LightPathStore, PathRows, segments_crossing_boxes
 from vpl_addon.sequence.state import SequenceState, frame_seed
 
 BOX = np.array([[0, 0, 0], [1, 0, 0], [1, 1, 0], [0, 1, 0], [0, 0, 1], [1, 0, 1], [1, 1, 1], [0, 1, 1]], float)
@@ -29,6 +29,17 @@ def test_segments_crossing_boxes():
     assert segments_crossing_boxes(origin, direction, length, box).tolist() == [True, False, False, False, True,
                                                                               True, True]
     assert segments_crossing_boxes(origin, direction, length, []).tolist() == [False] * 7
+    # a second box beside the first catches the ray that passed beside it; a margin the segment that stopped short
+    beside = [box[0], (np.array([0.0, 1.5, 0.0]), np.array([1.0, 2.5, 1.0]))]
+    assert segments_crossing_boxes(origin, direction, length, beside).tolist() == [True, False, False, True, True,
+                                                                                 True, True]
+    assert segments_crossing_boxes(origin, direction, length, box, margin=0.6).tolist()[1] is True
+
+
+def test_path_rows_find_each_path_and_bounce():
+    rows = PathRows(np.array([3, 1, 2, 1]), np.array([1, 2, 1, 1]))
+    assert rows.find(np.array([1, 1, 2, 3, 5, 1]), np.array([1, 2, 1, 1, 1, 3])).tolist() == [3, 1, 2, 0, -1, -1]
+    assert PathRows(np.zeros(0, np.int64), np.zeros(0, np.int32)).find(np.array([1]), np.array([1])).tolist() == [-1]
 
 
 def room_with_block(offset=0.0):
