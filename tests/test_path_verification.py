@@ -31,8 +31,8 @@ def test_segments_crossing_boxes():
     assert segments_crossing_boxes(origin, direction, length, []).tolist() == [False] * 7
     # a second box beside the first catches the ray that passed beside it; a margin the segment that stopped short
     beside = [box[0], (np.array([0.0, 1.5, 0.0]), np.array([1.0, 2.5, 1.0]))]
-    assert segments_crossing_boxes(origin, direction, length, beside).tolist() == [True, False, False, True, True,
-                                                                                 True, True]
+    crossing = segments_crossing_boxes(origin, direction, length, beside)
+    assert crossing.tolist() == [True, False, False, True, True, True, True]
     assert segments_crossing_boxes(origin, direction, length, box, margin=0.6).tolist()[1] is True
 
 
