@@ -33,9 +33,10 @@ from typing import Callable
 
 import bpy
 
+from ..vpl_addon.methods import METHODS
 from ..vpl_addon.sequence.state import SequenceState
 from . import engine
-from .frame_state import rendering, settings_key
+from .frame_state import animated_objects, rendering, settings_key
 from .output import _alive, render_to
 
 MANIFEST = "bake.json"
@@ -159,13 +160,16 @@ class Bake:
     chunks these are), the bake does not claim them itself."""
 
     def __init__(self, scene, out_dir: str, frames: range, overwrite: bool = False, first: int | None = None,
-                 claim: bool = True):
+                 claim: bool = True, last: int | None = None):
         if len(frames) == 0:
             raise BakeError(f"the frame range {frames.start}:{frames.stop - 1} is empty")
         self.first = frames.start if first is None else first
         if self.first > frames.start:
             raise BakeError(f"the sequence starts at frame {self.first}, after the chunk's first frame {frames.start}")
         self.scene, self.out_dir, self.frames = scene, os.path.abspath(out_dir), frames
+        # the frames looked over for what moves (``animated_objects``): from the sequence's first to the later of
+        # its last and the scene's end frame, the same for every chunk of a job that lies within the scene's range
+        self.last = max(frames.stop - 1 if last is None else last, scene.frame_end)
         self.key = settings_key(scene)
         self.report = BakeReport()
         if os.path.exists(self.out_dir) and not os.path.isdir(self.out_dir):
@@ -289,7 +293,10 @@ class Bake:
                 continue
             self.report.resumed_from = saved
             return state, saved
-        return SequenceState(self.scene.vpl_gi.method), self.first - 1
+        state = SequenceState(self.scene.vpl_gi.method)
+        if getattr(METHODS.get(state.method), "USES_STILL", False):
+            state.animated = animated_objects(self.scene, range(self.first, self.last + 1))
+        return state, self.first - 1
 
 
 def place_only(scene, state: SequenceState, frame: int) -> None:

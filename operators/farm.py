@@ -122,7 +122,8 @@ def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int,
     futures = {}
     for c in todo:
         task = {"scene": scene_path, "sha256": digest, "flags": flags, "out": out_dir,
-                "frames": [c.start, c.stop - 1], "first": frames.start, "threads": threads}
+                "frames": [c.start, c.stop - 1], "first": frames.start,
+                "last": frames.stop - 1, "threads": threads}
         key = f"vpl-gi-bake-{c.start}-{c.stop - 1}-{digest[:8]}-{os.urandom(4).hex()}"
         futures[client.submit(pickle.loads, _runs_when_loaded("operators.farm.render_chunk", task), key=key,
                               pure=False)] = c
@@ -259,7 +260,8 @@ def _render_chunk(task: dict) -> dict:
         scene = _prepare_scene(argparse.Namespace(**task["flags"]))
         if task.get("threads"):  # workers that share a machine share its cores
             scene.render.threads_mode, scene.render.threads = "FIXED", task["threads"]
-        bake = Bake(scene, task["out"], range(first, last + 1), first=task["first"], claim=False)
+        bake = Bake(scene, task["out"], range(first, last + 1), first=task["first"], claim=False,
+                    last=task["last"])
         report = bake.run(render_frame=render_frame)
     except (UserError, BakeError, OSError) as err:
         return {"error": f"{where}: {err}"}

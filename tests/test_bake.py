@@ -175,6 +175,51 @@ def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path
             assert whole.read_bytes() == resumed.read_bytes(), (method, name)
 
 
+def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, tmp_path):
+    """Before its first frame a vbnl bake looks over the sequence for the objects that move: the short box (its
+    own keys), a cube that follows an animated empty, one that only deforms (a shape key), one hidden from
+    render in some frames; not the static walls. Its state keeps their names, and frame 2's lights are frame 1's (the box moved,
+    the view did not)."""
+    import bpy
+    from vpl_gi.operators import bake, engine, frame_state
+    from vpl_gi.vpl_addon.sequence.state import SequenceState
+    scene = _small_scene(bpy, engine, "seq_moving_object")
+    scene.vpl_gi.method = "vbnl"
+    empty = bpy.data.objects.new("Mover", None)
+    scene.collection.objects.link(empty)
+    for frame, x in ((1, 0.0), (24, 1.0)):
+        empty.location.x = x
+        empty.keyframe_insert("location", index=0, frame=frame)
+    for name in ("Follower", "Bent", "Blinking"):
+        bpy.ops.mesh.primitive_cube_add(size=0.01, location=(5.0, 5.0, 5.0))  # out of the camera's view
+        bpy.context.object.name = name
+    bpy.data.objects["Follower"].parent = empty
+    bent = bpy.data.objects["Bent"]
+    bent.shape_key_add(name="Basis")
+    key = bent.shape_key_add(name="Push")
+    key.data[0].co.x += 1.0
+    for frame, value in ((1, 0.0), (24, 1.0)):
+        key.value = value
+        key.keyframe_insert("value", frame=frame)
+    blinking = bpy.data.objects["Blinking"]
+    for frame, hidden in ((1, False), (12, True)):  # shown in the viewport, hidden from render from frame 12
+        blinking.hide_render = hidden
+        blinking.keyframe_insert("hide_render", frame=frame)
+    scene.frame_set(5)
+    assert frame_state.animated_objects(scene, range(1, 25)) == ("Bent", "Blinking", "Follower", "ShortBox")
+    assert frame_state.animated_objects(scene, range(30, 33)) == ()  # past the keys nothing moves
+    assert scene.frame_current == 5
+
+    lights = {}
+    for last in (1, 2):
+        folder = tmp_path / f"to{last}"
+        assert bake.Bake(scene, str(folder), range(1, last + 1)).run().rendered == list(range(1, last + 1))
+        state = SequenceState.loads((folder / ".bake-state" / f"frame_{last:04d}.pkl").read_bytes())
+        assert state.animated == ("Bent", "Blinking", "Follower", "ShortBox")  # looked over 1..24, the scene's
+        lights[last] = state.method_state.lights.position
+    assert len(lights[1]) == 128 and np.array_equal(lights[1], lights[2])
+
+
 def _output_settings(scene) -> dict:
     """What a bake may touch of the user's scene: the output path, file extension, stamps, current frame and every
     setting of the image format (its colour spaces too)."""

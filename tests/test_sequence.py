@@ -136,3 +136,74 @@ def test_a_block_moving_through_the_lights_renders_finite_light_in_every_frame(m
         images.append(image)
     assert not np.array_equal(images[0], images[2])
     state.close()
+
+
+def test_a_scene_without_some_objects_keeps_the_rest_aligned():
+    from test_path_verification import room_with_block
+    scene = room_with_block(0.0)
+    rest = scene.without(("Block", "Nothing"))
+    kept = scene.object_id != scene.object_names.index("Block")
+    assert len(rest.triangles) == kept.sum() < len(scene.triangles)
+    for name in ("triangles", "normals", "uvs", "material", "object_id"):
+        assert np.array_equal(getattr(rest, name), getattr(scene, name)[kept]), name
+    assert rest.camera is scene.camera and rest.lights == scene.lights
+    assert scene.without(("Nothing",)) is scene
+
+
+def test_vbnl_lights_stay_where_they_were_while_an_animated_object_moves():
+    """Told which objects move in the sequence, vbnl finds its candidates in the rest of the scene: a block sliding
+    through the room leaves every light where it was (only their light changes) and renders finite light; without
+    the names the lights move all over the room. The still scene's tracer is built once and its rays are counted."""
+    from test_path_verification import room_with_block
+    moved = {}
+    for animated in (None, ("Block",)):
+        state = SequenceState("vbnl")
+        state.animated = animated
+        lights, images = [], []
+        for frame, offset in enumerate((-0.6, 0.0, 0.6), start=1):
+            result = render(room_with_block(offset), settings("vbnl", frame_seed(0, frame)), sequence=state)
+            lights.append(state.lights.position.copy())
+            images.append(result.passes["Diffuse Indirect"])
+            assert np.isfinite(images[-1]).all() and (images[-1] >= 0).all()
+        moved[animated] = [not np.array_equal(lights[0], later) for later in lights[1:]]
+        assert not np.array_equal(images[0], images[2])
+        if animated:
+            still = state._still[1]
+            assert 0 < still.rays_traced and result.rays > still.rays_traced
+            assert state.still(room_with_block(0.6))[1] is still  # the rest did not change: the same BVH
+        state.close()
+    assert moved == {None: [True, True], ("Block",): [False, False]}
+
+
+def test_the_still_scene_is_what_is_not_named_and_none_when_nothing_is_left():
+    """A state that names no object, or every object, has no still scene; one that names some has the rest, its
+    tracer built once and left out of the pickled state."""
+    from test_path_verification import room_with_block
+    scene = room_with_block(0.0)
+    state = SequenceState("vbnl")
+    state.begin(scene)
+    assert state.still(scene) is None  # nothing named
+    state.animated = ("Floor", "Wall", "Block")
+    assert state.still(scene) is None
+    state.animated = ("Wall", "Block")
+    rest, tracer = state.still(scene)
+    assert len(rest.triangles) == 2 and tracer.triangle_count == 2
+    restored = SequenceState.loads(state.dumps())  # the tracer is not pickled; the names are
+    assert restored.animated == ("Wall", "Block") and restored._still is None
+    state.close()
+
+
+def test_a_still_scene_the_camera_barely_sees_gives_way_to_the_whole_scene():
+    """The floor (most of the view) named as moving: the rest gives fewer than half the candidates, so vbnl finds
+    them in the whole scene, and the frame's lights are those of a state that names nothing."""
+    from test_path_verification import room_with_block
+    lights = []
+    for animated in (None, ("Floor",)):
+        state = SequenceState("vbnl")
+        state.animated = animated
+        render(room_with_block(0.0), settings("vbnl", frame_seed(0, 1)), sequence=state)
+        lights.append(state.lights.position)
+        if animated:
+            assert state._still is not None  # it was asked, and found too little
+        state.close()
+    assert np.array_equal(*lights)

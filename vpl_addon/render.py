@@ -26,6 +26,7 @@ import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from functools import partial
 from typing import Callable
 
 import numpy as np
@@ -208,7 +209,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             t0 = time.perf_counter()
             placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
             context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces,
-                                    np.random.default_rng([settings.seed, 1 << 21]))
+                                    np.random.default_rng([settings.seed, 1 << 21]),
+                                    None if sequence is None else partial(sequence.still, scene))
             if sequence is None:
                 vpls, result.info = place(settings.method, context, settings.placement)
             else:

@@ -274,6 +274,17 @@ class Scene:
                      object_asset=None if object_asset is None else np.asarray(object_asset, np.int64),
                      asset_names=asset_names)
 
+    def without(self, objects) -> "Scene":
+        """The scene without the triangles of the objects named in ``objects`` (the rest, their materials, lights,
+        camera and world as they are); itself when none of them is in it."""
+        ids = [i for i, name in enumerate(self.object_names) if name in set(objects)]
+        if not ids:
+            return self
+        keep = np.nonzero(~np.isin(self.object_id, ids))[0]
+        per_triangle = ("triangles", "normals", "uvs", "material", "object_id", "tangents", "colors")
+        return replace(self, **{name: None if getattr(self, name) is None else getattr(self, name)[keep]
+                                for name in per_triangle})
+
     @property
     def geometric_normals(self) -> np.ndarray:
         """(T,3) unit face normals from the corner winding (counter-clockwise = front, as in Blender)."""

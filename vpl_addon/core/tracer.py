@@ -81,6 +81,11 @@ class Tracer:
         An interruptible tracer (``progressive.Interruptible``) checks its stop flag on every call of a tracer
         method, this one included."""
 
+    def count(self, rays: int) -> None:
+        """Count ``rays`` traced for this tracer's frame by another tracer (of part of the same scene)."""
+        with self._counting:
+            self.rays_traced += int(rays)
+
     def close(self):
         if self._pool is not None:
             self._pool.shutdown()

@@ -10,6 +10,7 @@ Lights that are summed (VPLs) go to the one interleaved ``gather``; a method who
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Callable
 
 import numpy as np
 
@@ -29,6 +30,9 @@ class MethodContext:
     # same in every frame of a sequence (``rng`` is the frame's), so a view that did not change places its lights
     # where it did and a sequence's lights do not flicker; None: ``rng``
     camera_rng: np.random.Generator | None = None
+    # in a sequence: the frame without the objects that move in it, as (scene, tracer), or None
+    # (``SequenceState.still``); asked for by a method that finds what it draws from the view in it (vbnl)
+    still: Callable[[], tuple | None] | None = None
 
 
 @dataclass

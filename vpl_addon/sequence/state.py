@@ -5,6 +5,11 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
 
 * ``begin(scene)`` digests the frame (``motion.Snapshot``), compares it with the previous one (``motion.Motion``)
   and returns the tracer: the previous frame's BVH when no triangle moved, a new one otherwise;
+* ``still(scene)`` is the frame without the objects that move anywhere in the sequence (``animated``, found by
+  whoever runs the sequence: a bake looks over its frames before the first) and a tracer of it, kept from frame to
+  frame: what a method draws from the camera's view is found in it (vbnl's candidates), so that where the view did
+  not change its lights stay where they were while an object moves (bench/README.md, "Candidates of the still
+  scene");
 * ``place(method, context, settings)`` places the frame's virtual lights with a method module (render hands it
   in). A method that keeps its own state across frames (``smc``; ``ir``, ``bidir`` and ``vbnl`` their light paths,
   ``path_verification``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up, so a
@@ -21,6 +26,7 @@ depend on where the bake started, and the pixel noise and the lights' places do 
 """
 from __future__ import annotations
 
+import hashlib
 import pickle
 
 import numpy as np
@@ -33,14 +39,19 @@ from .motion import Motion, Snapshot
 # The layout of the pickled state and of every method's state in it: raised whenever one of them gains, loses or
 # changes a field, so a state saved by an earlier engine is refused (the bake starts cold) rather than failing on a
 # missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas. 3: vbnl's
-# photon lights keep their light tree (``PhotonLights.tree``).
-STATE_FORMAT = 3
+# photon lights keep their light tree (``PhotonLights.tree``). 4: the state keeps the objects that move in the sequence
+# (``SequenceState.animated``).
+STATE_FORMAT = 4
 
 
 def frame_seed(seed: int, frame: int) -> int:
     """The seed of one frame: a hash of (seed, frame), so frames are independent and reproducible."""
     return int(np.random.SeedSequence([int(seed) & 0xFFFFFFFF, (int(frame) + (1 << 31)) & 0xFFFFFFFF])
                .generate_state(1)[0] & 0x7FFFFFFF)
+
+
+def _hex(*values) -> str:
+    return hashlib.blake2b(repr(values).encode(), digest_size=16).hexdigest()
 
 
 class SequenceState:
@@ -57,8 +68,11 @@ class SequenceState:
         self.method_state = None  # what a sequence method keeps (its ``start``/``advance``)
         self.bvh_builds = 0  # BVHs built over the whole sequence (static frames build none)
         self.rng_state = None  # the placement generator's state after the lights were last placed
+        # the names of the objects that move anywhere in the sequence (None: not known, as in the viewport)
+        self.animated: tuple[str, ...] | None = None
         self._tracer: Tracer | None = None
         self._tracer_digest: str | None = None
+        self._still: tuple[str, Tracer] | None = None  # (digest of the still objects, their tracer)
         self._threads: int | None = None  # the threads the tracer was asked for
 
     # -- per frame -------------------------------------------------------------------------------------------------
@@ -77,6 +91,28 @@ class SequenceState:
         self._tracer.rays_traced = 0
         self._tracer.cutouts = cutouts(scene)  # alpha may change from frame to frame without the triangles
         return self._tracer
+
+    def still(self, scene):
+        """(scene, tracer) of the frame ``begin`` digested without the ``animated`` objects; None when none of them
+        is in it or nothing else is. The tracer is built again only when the rest changes (an object that moved
+        although it was not named; the threads)."""
+        rest = scene.without(self.animated or ())
+        if rest is scene or len(rest.triangles) == 0:
+            return None
+        digest = _hex(sorted((name, d) for name, d in self.snapshot.objects.items() if name not in self.animated),
+                      self._threads)
+        if self._still is None or self._still[0] != digest:
+            self._close_still()
+            self._still = digest, Tracer(rest.triangles, threads=self._threads)
+        tracer = self._still[1]
+        tracer.rays_traced = 0
+        tracer.cutouts = cutouts(rest)
+        return rest, tracer
+
+    def _close_still(self) -> None:
+        if self._still is not None:
+            self._still[1].close()
+            self._still = None
 
     def place(self, module, context, settings):
         """The frame's lights from ``module``, a method of ``methods.METHODS`` (handed in, so the sequence machinery
@@ -107,11 +143,12 @@ class SequenceState:
         if self._tracer is not None:
             self._tracer.close()
             self._tracer = None
+        self._close_still()
 
     # -- persistence -----------------------------------------------------------------------------------------------
     def __getstate__(self):
         state = dict(self.__dict__)
-        state["_tracer"], state["_tracer_digest"] = None, None
+        state["_tracer"], state["_tracer_digest"], state["_still"] = None, None, None
         return state
 
     def dumps(self) -> bytes:
