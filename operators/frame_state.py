@@ -94,7 +94,7 @@ def animated_objects(scene, frames) -> tuple[str, ...]:
                 present[name] = present.get(name, 0) + 1
     finally:
         scene.frame_set(current)
-    return tuple(sorted(name for name, digests in seen.items() if len(digests) > 1 or present[name] < len(frames)))
+    return tuple(sorted(name for name, shapes in seen.items() if len(shapes) > 1 or present[name] < len(frames)))
 
 
 def _vertices(obj) -> np.ndarray:
