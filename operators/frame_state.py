@@ -68,8 +68,8 @@ def active_sequence(scene, settings, is_animation: bool):
 def animated_objects(scene, frames) -> tuple[str, ...]:
     """The names of the geometry objects that move, deform, appear or vanish anywhere in ``frames`` (sorted): each
     frame's evaluated objects (as the scene's view layer evaluates them) digested by their instances' transforms,
-    their meshes' vertices and whether they are hidden from render, a few milliseconds a frame for 150,000 triangles. The scene is left at the frame
-    it was at."""
+    their meshes' vertices and whether they are hidden from render, a few milliseconds a frame for 150,000
+    triangles. The scene is left at the frame it was at."""
     import bpy
     seen: dict[str, set[str]] = {}
     present: dict[str, int] = {}
