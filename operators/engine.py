@@ -207,7 +207,8 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self._report("WARNING", warning)
         if sequence is not None:
             FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
-                              "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds})
+                              "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds,
+                              "animated": sequence.animated})
         LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
                           width=built.camera.width, height=built.camera.height, samples=settings.samples,
                           method=settings.method, info=result.info, bands_shown=len(bands))

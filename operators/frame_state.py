@@ -18,7 +18,8 @@ from .extract import GEOMETRY_TYPES
 
 _ACTIVE: SequenceState | None = None  # set by a bake around each frame
 _ANIMATION: dict[str, tuple[SequenceState, int]] = {}  # animation render: key -> (state, last frame)
-# Frames rendered with a sequence state, as the engine reports them (frame, light paths, reused, BVH builds).
+# Frames rendered with a sequence state, as the engine reports them (frame, light paths, reused, BVH builds, the
+# objects named as moving).
 FRAME_LOG: list[dict] = []
 
 
@@ -58,7 +59,9 @@ def active_sequence(scene, settings, is_animation: bool):
             for old, _ in _ANIMATION.values():  # a new animation render: start cold
                 old.close()
             _ANIMATION.clear()
-            _ANIMATION[key] = (SequenceState(settings.method), scene.frame_current)
+            fresh = SequenceState(settings.method)
+            fresh.learns = True  # it cannot look ahead for the objects that move, as a bake does: it learns them
+            _ANIMATION[key] = (fresh, scene.frame_current)
         state = _ANIMATION[key][0]
         _ANIMATION[key] = (state, scene.frame_current)
         return state, frame_seed(settings.seed, scene.frame_current)

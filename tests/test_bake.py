@@ -96,7 +96,8 @@ def test_killed_bake_resumes_to_the_same_files_as_an_uninterrupted_one(tmp_path)
 
 def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
     """``blender -b scene.blend -E VPL_GI -s 1 -e 3 -a`` renders through the same engine: frames 2 and 3 of a
-    static scene reuse frame 1's lights; the frames of a moving light are placed again."""
+    static scene reuse frame 1's lights; the frames of a moving light are placed again; vbnl's state learns what
+    moves."""
     import bpy
     from vpl_gi.operators import engine, frame_state
     for blend, reused in (("cornell_area", [False, True, True]), ("seq_moving_light", [False, False, False])):
@@ -114,6 +115,17 @@ def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
         assert [e["reused"] for e in log] == reused
         assert [e["light_paths"] == 0 for e in log] == reused
         assert log[-1]["bvh_builds"] == 1
+    # vbnl's state learns the moving block in the frame it first moves (the render cannot look ahead)
+    bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / "seq_moving_object.blend"))
+    scene = bpy.context.scene
+    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
+    scene.render.resolution_percentage = 25
+    scene.vpl_gi.method, scene.vpl_gi.vpls, scene.vpl_gi.samples = "vbnl", 128, 1
+    scene.frame_start, scene.frame_end = 1, 3
+    scene.render.filepath = str(tmp_path / "vbnl_")
+    frame_state.FRAME_LOG.clear()
+    bpy.ops.render.render(animation=True)
+    assert [e["animated"] for e in frame_state.FRAME_LOG] == [None, ("ShortBox",), ("ShortBox",)]
 
 
 def _small_scene(bpy, engine, blend):

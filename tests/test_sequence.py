@@ -207,3 +207,19 @@ def test_a_still_scene_the_camera_barely_sees_gives_way_to_the_whole_scene():
             assert state._still is not None  # it was asked, and found too little
         state.close()
     assert np.array_equal(*lights)
+
+
+def test_a_state_that_learns_names_each_object_once_it_has_moved():
+    """An animation render cannot look ahead: its state learns the objects as they move, so from the frame after
+    the block first moved vbnl's lights stay where they were."""
+    from test_path_verification import room_with_block
+    state = SequenceState("vbnl")
+    state.learns = True
+    named, lights = [], []
+    for frame, offset in enumerate((-0.6, 0.0, 0.6, 0.6), start=1):
+        render(room_with_block(offset), settings("vbnl", frame_seed(0, frame)), sequence=state)
+        named.append(state.animated)
+        lights.append(state.lights.position.copy())
+    state.close()
+    assert named == [None, ("Block",), ("Block",), ("Block",)]
+    assert not np.array_equal(lights[0], lights[1]) and np.array_equal(lights[1], lights[2])
