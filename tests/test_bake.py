@@ -190,8 +190,8 @@ def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path
 def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, tmp_path):
     """Before its first frame a vbnl bake looks over the sequence for the objects that move: the short box (its
     own keys), a cube that follows an animated empty, one that only deforms (a shape key), one hidden from
-    render in some frames; not the static walls. Its state keeps their names, and frame 2's lights are frame 1's (the box moved,
-    the view did not)."""
+    render in some frames; not the static walls. Its state keeps their names, frame 2's lights are frame 1's (the box moved, the
+    view did not), and a chunk of the sequence writes the frames one bake writes."""
     import bpy
     from vpl_gi.operators import bake, engine, frame_state
     from vpl_gi.vpl_addon.sequence.state import SequenceState
@@ -230,6 +230,9 @@ def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, 
         assert state.animated == ("Bent", "Blinking", "Follower", "ShortBox")  # looked over 1..24, the scene's
         lights[last] = state.method_state.lights.position
     assert len(lights[1]) == 128 and np.array_equal(lights[1], lights[2])
+    # a chunk of the sequence starting cold at its first frame looks over the same frames: the same bytes
+    assert bake.Bake(scene, str(tmp_path / "chunk"), range(2, 3), first=1).run().replayed == [1]
+    assert (tmp_path / "chunk" / "frame_0002.exr").read_bytes() == (tmp_path / "to2" / "frame_0002.exr").read_bytes()
 
 
 def _output_settings(scene) -> dict:
