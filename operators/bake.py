@@ -296,6 +296,7 @@ class Bake:
         state = SequenceState(self.scene.vpl_gi.method)
         if getattr(METHODS.get(state.method), "USES_STILL", False):
             state.animated = animated_objects(self.scene, range(self.first, self.last + 1))
+            state.learns = True  # and what the look-ahead cannot see (an object hidden in the viewport only)
         return state, self.first - 1
 
 

@@ -190,7 +190,8 @@ def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path
 def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, tmp_path):
     """Before its first frame a vbnl bake looks over the sequence for the objects that move: the short box (its
     own keys), a cube that follows an animated empty, one that only deforms (a shape key), one hidden from
-    render in some frames; not the static walls. Its state keeps their names, frame 2's lights are frame 1's (the box moved, the
+    render in some frames; not the static walls, and not one hidden in the viewport (it is learnt in the frame
+    it moves). Its state keeps their names, frame 2's lights are frame 1's (the box moved, the
     view did not), and a chunk of the sequence writes the frames one bake writes."""
     import bpy
     from vpl_gi.operators import bake, engine, frame_state
@@ -217,6 +218,13 @@ def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, 
     for frame, hidden in ((1, False), (12, True)):  # shown in the viewport, hidden from render from frame 12
         blinking.hide_render = hidden
         blinking.keyframe_insert("hide_render", frame=frame)
+    # rendered, hidden in the viewport, inside the tall box (no ray meets it, and the scene's bounds stay)
+    bpy.ops.mesh.primitive_cube_add(size=0.01, location=(-0.35, 0.3, 0.5))
+    hidden = bpy.context.object
+    hidden.name, hidden.hide_viewport = "Unseen", True
+    for frame, z in ((1, 0.5), (24, 0.7)):
+        hidden.location.z = z
+        hidden.keyframe_insert("location", index=2, frame=frame)
     scene.frame_set(5)
     assert frame_state.animated_objects(scene, range(1, 25)) == ("Bent", "Blinking", "Follower", "ShortBox")
     assert frame_state.animated_objects(scene, range(30, 33)) == ()  # past the keys nothing moves
@@ -227,7 +235,8 @@ def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, 
         folder = tmp_path / f"to{last}"
         assert bake.Bake(scene, str(folder), range(1, last + 1)).run().rendered == list(range(1, last + 1))
         state = SequenceState.loads((folder / ".bake-state" / f"frame_{last:04d}.pkl").read_bytes())
-        assert state.animated == ("Bent", "Blinking", "Follower", "ShortBox")  # looked over 1..24, the scene's
+        # looked over 1..24, the scene's frames; the object the look-ahead cannot see is learnt when it moves
+        assert state.animated == ("Bent", "Blinking", "Follower", "ShortBox", *(("Unseen",) if last > 1 else ()))
         lights[last] = state.method_state.lights.position
     assert len(lights[1]) == 128 and np.array_equal(lights[1], lights[2])
     # a chunk of the sequence starting cold at its first frame looks over the same frames: the same bytes

@@ -7,7 +7,7 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
   and returns the tracer: the previous frame's BVH when no triangle moved, a new one otherwise;
 * ``still(scene)`` is the frame without the objects that move anywhere in the sequence (``animated``, found by
   whoever runs the sequence: a bake looks over its frames before the first; an animation render, which cannot look
-  ahead, ``learns`` them as they move) and a tracer of it, kept from frame to
+  ahead, ``learns`` them as they move, and so does a bake, for what its look-ahead missed) and a tracer of it, kept from frame to
   frame: what a method draws from the camera's view is found in it (vbnl's candidates), so that where the view did
   not change its lights stay where they were while an object moves (bench/README.md, "Candidates of the still
   scene");
@@ -71,7 +71,7 @@ class SequenceState:
         self.rng_state = None  # the placement generator's state after the lights were last placed
         # the names of the objects that move anywhere in the sequence (None: not known, as in the viewport)
         self.animated: tuple[str, ...] | None = None
-        self.learns = False  # ``animated`` gains each frame's moved objects (an animation render)
+        self.learns = False  # ``animated`` gains each frame's moved objects (an animation render, a bake)
         self._tracer: Tracer | None = None
         self._tracer_digest: str | None = None
         self._still: tuple[str, Tracer] | None = None  # (digest of the still objects, their tracer)
