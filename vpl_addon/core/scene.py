@@ -277,7 +277,8 @@ class Scene:
     def without(self, objects) -> "Scene":
         """The scene without the triangles of the objects named in ``objects`` (the rest, their materials, lights,
         camera and world as they are); itself when none of them is in it."""
-        ids = [i for i, name in enumerate(self.object_names) if name in set(objects)]
+        names = set(objects)
+        ids = [i for i, name in enumerate(self.object_names) if name in names]
         if not ids:
             return self
         keep = np.nonzero(~np.isin(self.object_id, ids))[0]
