@@ -55,6 +55,19 @@ def _hex(*values) -> str:
     return hashlib.blake2b(repr(values).encode(), digest_size=16).hexdigest()
 
 
+def _kept(held: tuple[str, Tracer] | None, digest: str, scene, threads: int | None) -> tuple[str, Tracer]:
+    """``held`` (digest, tracer) if it was built for ``digest``, else a tracer of ``scene``'s triangles (the old one
+    closed); its ray count reset and the scene's cut-outs set (alpha may change from frame to frame without the
+    triangles)."""
+    if held is None or held[0] != digest:
+        if held is not None:
+            held[1].close()
+        held = digest, Tracer(scene.triangles, threads=threads)
+    held[1].rays_traced = 0
+    held[1].cutouts = cutouts(scene)
+    return held
+
+
 class SequenceState:
     """One method's state across the frames of a sequence."""
 
@@ -72,9 +85,8 @@ class SequenceState:
         # the names of the objects that move anywhere in the sequence (None: not known, as in the viewport)
         self.animated: tuple[str, ...] | None = None
         self.learns = False  # ``animated`` gains each frame's moved objects (an animation render, a bake)
-        self._tracer: Tracer | None = None
-        self._tracer_digest: str | None = None
-        self._still: tuple[str, Tracer] | None = None  # (digest of the still objects, their tracer)
+        self._whole: tuple[str, Tracer] | None = None  # (digest of the triangles and threads, their tracer)
+        self._still: tuple[str, Tracer] | None = None  # (digest of the still objects and threads, their tracer)
         self._threads: int | None = None  # the threads the tracer was asked for
 
     # -- per frame -------------------------------------------------------------------------------------------------
@@ -86,15 +98,11 @@ class SequenceState:
         self.snapshot, self.frame = snapshot, frame
         if self.learns and not self.motion.first and self.motion.moved_objects:
             self.animated = tuple(sorted({*(self.animated or ()), *self.motion.moved_objects}))
-        if self._tracer is None or self._tracer_digest != snapshot.triangles or self._threads != threads:
-            if self._tracer is not None:
-                self._tracer.close()
-            self._tracer, self._threads = Tracer(scene.triangles, threads=threads), threads
-            self._tracer_digest = snapshot.triangles
+        held, self._threads = self._whole, threads
+        self._whole = _kept(held, _hex(snapshot.triangles, threads), scene, threads)
+        if self._whole is not held:
             self.bvh_builds += 1
-        self._tracer.rays_traced = 0
-        self._tracer.cutouts = cutouts(scene)  # alpha may change from frame to frame without the triangles
-        return self._tracer
+        return self._whole[1]
 
     def still(self, scene):
         """(scene, tracer) of the frame ``begin`` digested without the ``animated`` objects; None when none of them
@@ -105,18 +113,8 @@ class SequenceState:
             return None
         digest = _hex(sorted((name, d) for name, d in self.snapshot.objects.items() if name not in self.animated),
                       self._threads)
-        if self._still is None or self._still[0] != digest:
-            self._close_still()
-            self._still = digest, Tracer(rest.triangles, threads=self._threads)
-        tracer = self._still[1]
-        tracer.rays_traced = 0
-        tracer.cutouts = cutouts(rest)
-        return rest, tracer
-
-    def _close_still(self) -> None:
-        if self._still is not None:
-            self._still[1].close()
-            self._still = None
+        self._still = _kept(self._still, digest, rest, self._threads)
+        return rest, self._still[1]
 
     def place(self, module, context, settings):
         """The frame's lights from ``module``, a method of ``methods.METHODS`` (handed in, so the sequence machinery
@@ -144,15 +142,15 @@ class SequenceState:
         return lights, info
 
     def close(self) -> None:
-        if self._tracer is not None:
-            self._tracer.close()
-            self._tracer = None
-        self._close_still()
+        for held in (self._whole, self._still):
+            if held is not None:
+                held[1].close()
+        self._whole = self._still = None
 
     # -- persistence -----------------------------------------------------------------------------------------------
     def __getstate__(self):
         state = dict(self.__dict__)
-        state["_tracer"], state["_tracer_digest"], state["_still"] = None, None, None
+        state["_whole"], state["_still"] = None, None
         return state
 
     def dumps(self) -> bytes:
