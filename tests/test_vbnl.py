@@ -11,7 +11,7 @@ from vpl_addon.core.tracer import Tracer
 from vpl_addon.gather.virtual_lights import VirtualLights
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.methods import MethodContext, MethodSettings, place
-from vpl_addon.methods.vbnl import PATHS_PER_BATCH, VBNLSettings, catchment, photon_batches, split_photons
+from vpl_addon.methods.vbnl import PATHS_PER_BATCH, VBNLSettings, catchment, open_reach, photon_batches, split_photons
 from vpl_addon.methods.vbnl import photon_lights
 from vpl_addon.methods.vbnl.photon_lights import SLAB, PhotonLights, Splitting
 from vpl_addon.methods.vbnl import sample_elimination
@@ -270,6 +270,42 @@ def test_catchment_of_lights_on_a_thin_strip_is_measured_again():
     area = catchment(lights, scene, tracer, 32, np.random.default_rng(0))
     tracer.close()
     assert np.abs(area / (w * 2 * np.sqrt(r * r - x * x)) - 1).max() < 0.15
+
+
+def test_a_wall_standing_on_the_floor_cuts_a_floor_lights_reach():
+    """A floor light 10 cm from a 4 cm wall that stands on the floor, its disc 40 cm across: the floor behind the
+    wall (another room) lies in its sphere, on its plane and faces its way, so without a reach it took that room's
+    photons and lent it its light. With ``open_reach`` the disc stops at the wall: the light covers the floor on its
+    side, not behind; a photon behind the wall goes to no light; its catchment is the floor on its side; a light away
+    from the wall keeps its whole disc."""
+    from vpl_addon.core.scene import Materials, Scene
+    floor = np.array([[[-1, -1, 0], [1, -1, 0], [1, 1, 0]], [[-1, -1, 0], [1, 1, 0], [-1, 1, 0]]], float)
+    x0, x1, h = 0.1, 0.14, 1.0  # the wall from x = 0.1 to 0.14, 1 m high, across the floor
+    corners = np.array([[x, y, z] for x in (x0, x1) for y in (-1, 1) for z in (0, h)], float)
+    faces = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 2, 6, 4), (1, 5, 7, 3), (2, 3, 7, 6)]  # the sides and the top
+    halves = [(f[0], f[1], f[2]) for f in faces] + [(f[0], f[2], f[3]) for f in faces]
+    wall = np.array([[corners[a], corners[b], corners[c]] for a, b, c in halves])
+    scene = Scene.build(np.concatenate([floor, wall]), Materials.make([]), [], plane_scene().camera)
+    tracer = Tracer(scene.triangles)
+    position, normal, radius = np.array([[0.0, 0, 0], [-0.6, 0, 0]]), np.tile([0, 0, 1.0], (2, 1)), np.full(2, 0.2)
+    reach = open_reach(position, normal, radius, tracer)
+    whole = PhotonLights(position, normal, radius, np.zeros((2, 3)))
+    cut = PhotonLights(position, normal, radius, np.zeros((2, 3)), reach=reach)
+    assert reach[0].min() == pytest.approx(x0, rel=0.02) and np.all(reach[1] == 0.2)
+    up = np.tile([0, 0, 1.0], (3, 1))
+    near, behind, far = [0.05, 0.02, 0], [0.17, 0.02, 0], [-0.6, 0.1, 0]
+    points = np.array([near, behind, far])
+    assert np.all(whole.share_of(points, up, np.zeros(3, np.int64))[:2] == 1.0)  # its only light, behind as well
+    assert list(cut.share_of(points, up, np.zeros(3, np.int64))[:2] > 0) == [True, False]
+    assert cut.share_of(points, up, np.ones(3, np.int64))[2] == 1.0
+    split = Splitting(cut, 1, 3)
+    split.add(points[:2], up[:2], np.ones((2, 3)))
+    assert split.total()[0, 0] == pytest.approx([1.0] * 3)  # the photon behind the wall went to no light
+    area = catchment(cut, scene, tracer, 256, np.random.default_rng(1))
+    tracer.close()
+    side = 0.2 ** 2 * np.arccos(0.1 / 0.2) - 0.1 * np.sqrt(0.2 ** 2 - 0.1 ** 2)  # the disc's segment past x = 0.1
+    assert area[0] == pytest.approx(np.pi * 0.04 - side, rel=0.05)
+    assert area[1] == pytest.approx(np.pi * 0.04, rel=0.02)
 
 
 def lit_floor(lamp, max_bounces=1):

@@ -41,8 +41,8 @@ from .motion import Motion, Snapshot
 # changes a field, so a state saved by an earlier engine is refused (the bake starts cold) rather than failing on a
 # missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas. 3: vbnl's
 # photon lights keep their light tree (``PhotonLights.tree``). 4: the state keeps the objects that move in the sequence
-# (``SequenceState.animated``).
-STATE_FORMAT = 4
+# (``SequenceState.animated``). 5: vbnl's photon lights keep their reach (``PhotonLights.reach``).
+STATE_FORMAT = 5
 
 
 def frame_seed(seed: int, frame: int) -> int:

@@ -19,6 +19,11 @@ diffusely reflected light only and keep a single value each: the paper's directi
 octahedral maps) for lights on glossy surfaces are replaced by extending camera paths through metallic lobes
 (``virtual_light_sampling``).
 
+A light's support also stops where something stands on its plane (``reach``, per sector of its disc, found by
+``methods.vbnl.open_reach``): a wall on the floor, a door leaf, a cabinet's side. Without it the floor of the next room
+lay in a floor light's sphere, on its plane and facing its way: the light took that room's photons and lent it its
+light (5-10 % of the living room's photon light crossed such an occluder).
+
 The lights that may cover a point are listed in its cell of a hashed uniform grid (``LightGrid``): a light's
 support is a thin disc (its sphere within ``SLAB`` r_j of its tangent plane), listed in every cell the disc's
 bounding box touches. Compiled kernels (``core.compiled``) test a point against its cell's lights and share or
@@ -30,7 +35,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...core.compiled import kernel
+from ...core.compiled import inline, kernel
+from ...core.sampling import basis
 from .morton import morton_codes, radix_tree
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
@@ -47,6 +53,7 @@ SORTED_FROM = 32768  # lights from which photons are split a million at a time i
 # path order, 350-520 ns in block order; at 4,096 and 20,000 lights, in cache anyway, path order is 10-15 % faster
 SORTED_POINTS = 1 << 20  # points split at once in block order: more of them share a block's lights in cache
 BLOCK = 2  # a block is 2^BLOCK cells a side
+SECTORS = 16  # a light's reach (``PhotonLights.reach``) is kept per sector of its disc
 HASH = (73856093, 19349663, 83492791)  # Teschner et al. 2003, spatial hashing of a cell's integer coordinates
 
 
@@ -60,12 +67,15 @@ class LightGrid:
     dims: np.ndarray  # (3,) int64: cells along each axis; points outside them are covered by no light
     start: np.ndarray  # (S+1,) int64, S a power of two
     light: np.ndarray  # (E,) int64
-    discs: np.ndarray  # (N,8) each light's centre, normal and radius (and a pad): one cache line a light
+    discs: np.ndarray  # (N,8) each light's centre, normal, radius and whether its reach is cut: one cache line a light
     longest: int = 1  # the most lights listed in one slot
+    reach: np.ndarray = field(default_factory=lambda: np.zeros((0, SECTORS)))  # (N, SECTORS) or none: whole discs
 
     @staticmethod
-    def build(position: np.ndarray, normal: np.ndarray, radius: np.ndarray) -> "LightGrid":
-        """The grid of lights at ``position`` (N,3) with unit ``normal`` and ``radius`` (N,)."""
+    def build(position: np.ndarray, normal: np.ndarray, radius: np.ndarray,
+              reach: np.ndarray | None = None) -> "LightGrid":
+        """The grid of lights at ``position`` (N,3) with unit ``normal``, ``radius`` (N,) and ``reach`` (N, SECTORS)
+        if given (``PhotonLights.reach``)."""
         half = radius[:, None] * (np.sqrt(np.maximum(1.0 - normal * normal, 0.0)) + SLAB * np.abs(normal))
         half = half * (1.0 + 1e-6) + 1e-12 * np.abs(position)  # the disc's bounding box, with room for rounding
         lo, hi = position - half, position + half
@@ -88,8 +98,11 @@ class LightGrid:
         start = np.searchsorted(slot, np.arange(slots + 1))
         discs = np.zeros((len(radius), 8))
         discs[:, :3], discs[:, 3:6], discs[:, 6] = position, normal, radius
+        if reach is not None:  # only the lights whose reach is cut short somewhere test it
+            discs[:, 7] = np.any(reach < radius[:, None], axis=1)
         return LightGrid(origin, cell, np.floor((hi.max(axis=0) - origin) / cell).astype(np.int64) + 1, start,
-                         light, discs, max(int(np.max(np.diff(start))), 1))
+                         light, discs, max(int(np.max(np.diff(start))), 1),
+                         np.zeros((0, SECTORS)) if reach is None else np.ascontiguousarray(reach, np.float64))
 
 
 def _slot(x, y, z, mask):
@@ -108,6 +121,8 @@ class PhotonLights:
     intensity: np.ndarray  # (N,3) radiant intensity along the normal, from photon splitting
     catchment: np.ndarray | None = None  # (N,) A_j, the surface area of the light's share; None: pi r_j^2
     by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
+    # (N, SECTORS) how far the light reaches in each sector of its disc (``open_reach``); None: its whole disc
+    reach: np.ndarray | None = None
     grid: LightGrid | None = field(default=None, repr=False)
     _tree: tuple | None = field(default=None, repr=False)  # ``tree``'s (box, order, nodes), made once
 
@@ -116,7 +131,7 @@ class PhotonLights:
         self.normal = np.ascontiguousarray(self.normal, np.float64)
         self.radius = np.ascontiguousarray(self.radius, np.float64)
         if self.grid is None and len(self.position):
-            self.grid = LightGrid.build(self.position, self.normal, self.radius)
+            self.grid = LightGrid.build(self.position, self.normal, self.radius, self.reach)
 
     def __len__(self):
         return len(self.position)
@@ -158,7 +173,7 @@ class PhotonLights:
     def _kernel_grid(self) -> tuple:
         """What the kernels read of the lights: the grid with the lights' discs."""
         g = self.grid
-        return g.origin, g.cell, g.dims, g.start, g.light, g.discs, g.longest
+        return g.origin, g.cell, g.dims, g.start, g.light, g.discs, g.longest, g.reach
 
     def shares(self, points: np.ndarray, normals: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Pairs (point row, light, s_j(point)), by row: the lights whose sphere holds the point, facing its side and
@@ -277,11 +292,27 @@ def _in_block_order(points, normals, values, group, grid):
     return p, n, v, g, c
 
 
+@inline
+def _sector(x, y):
+    """The sector (of ``SECTORS``) of the disc that holds the in-plane offset (x, y) from its centre."""
+    return min(int((np.arctan2(y, x) / (2.0 * np.pi) + 0.5) * SECTORS), SECTORS - 1)
+
+
+@inline
+def _within_reach(dx, dy, dz, disc, reach):
+    """Whether the offset (dx, dy, dz) from a light's centre (its ``disc`` row) lies within its ``reach`` (SECTORS,)
+    in the sector it falls in."""
+    t0, t1, t2, b0, b1, b2 = basis(disc[3], disc[4], disc[5])
+    x, y = dx * t0 + dy * t1 + dz * t2, dx * b0 + dy * b1 + dz * b2
+    far = reach[_sector(x, y)]
+    return x * x + y * y <= far * far
+
+
 @kernel
 def _covering(p, n, s, grid, found, weight):
     """How many lights cover the point ``p`` (3,) of normal ``n`` in the cell of slot ``s`` (``_slot_of``); their
     indices and weights 1 - (d / r_j)^2 go to ``found`` and ``weight``."""
-    start, listed, discs = grid[3], grid[4], grid[5]
+    start, listed, discs, reach = grid[3], grid[4], grid[5], grid[7]
     if s < 0:
         return 0
     k = 0
@@ -293,7 +324,10 @@ def _covering(p, n, s, grid, found, weight):
         d2 = dx * dx + dy * dy + dz * dz
         found[k] = j
         weight[k] = max(1.0 - d2 / r2, 1e-12)  # the rim still counts
-        k += (d2 <= r2) & (n[0] * nx + n[1] * ny + n[2] * nz > 0.0) & (abs(dx * nx + dy * ny + dz * nz) <= SLAB * r)
+        inside = (d2 <= r2) & (n[0] * nx + n[1] * ny + n[2] * nz > 0.0) & (abs(dx * nx + dy * ny + dz * nz) <= SLAB * r)
+        if inside and discs[j, 7] != 0.0:  # a branch, but only for the few lights that hold the point
+            inside = _within_reach(dx, dy, dz, discs[j], reach[j])
+        k += inside
     return k
 
 
