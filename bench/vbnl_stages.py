@@ -59,7 +59,7 @@ def main():
     from vpl_gi.vpl_addon.core.tracer import Tracer
     from vpl_gi.vpl_addon.lights import LightSet
     from vpl_gi.vpl_addon.methods import MethodContext, MethodSettings, place
-    from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates, photon_batches, split_photons
+    from vpl_gi.vpl_addon.methods.vbnl import PATHS_PER_BATCH, candidates, open_reach, photon_batches, split_photons
     from vpl_gi.vpl_addon.methods.vbnl.photon_lights import ALPHA, PhotonLights
     from vpl_gi.vpl_addon.methods.vbnl.sample_elimination import eliminate
 
@@ -80,7 +80,11 @@ def main():
     t = time.perf_counter()
     kept = eliminate(position, args.lights, rng)
     print(f"adaptive sample elimination {len(position):,} -> {len(kept.keep):,}: {time.perf_counter() - t:.2f} s")
-    lights = PhotonLights(position[kept.keep], normal[kept.keep], ALPHA * kept.r_max, np.zeros((len(kept.keep), 3)))
+    at, facing, radius = position[kept.keep], normal[kept.keep], ALPHA * kept.r_max
+    t = time.perf_counter()
+    reach = open_reach(at, facing, radius, tracer)
+    print(f"the lights' reach ({reach.size * 2:,} rays): {time.perf_counter() - t:.2f} s")
+    lights = PhotonLights(at, facing, radius, np.zeros((len(kept.keep), 3)), reach=reach)
     context = MethodContext(scene, tracer, lights_in_scene, rng, scene.max_bounces)
     bounces = max(scene.max_bounces, 1)
     counted = []
