@@ -36,13 +36,16 @@ import bpy
 from ..vpl_addon.methods import METHODS
 from ..vpl_addon.sequence.state import SequenceState
 from . import engine
-from .frame_state import animated_objects, rendering, settings_key
+from .frame_state import looking_over, rendering, settings_key
 from .output import _alive, render_to
 
 MANIFEST = "bake.json"
 STATE_DIR = ".bake-state"
 CLAIM_DIR = ".bake-claims"
 FRAME_NAME = "frame_{:04d}.exr"
+
+
+LOOK_AHEAD_STRETCH = 0.2  # seconds of looking over the frames for what moves between two steps of a bake
 
 
 class BakeError(RuntimeError):
@@ -220,20 +223,22 @@ class Bake:
 
     def run(self, progress: Callable[[float, str], bool] | None = None,
             render_frame: Callable[[str], None] | None = None) -> BakeReport:
-        """Render the unfinished frames in order; ``progress(fraction, text)`` returning False stops after the
-        current frame. ``render_frame(path)`` renders the scene's current frame to ``path`` atomically."""
+        """Render the unfinished frames in order; ``progress(fraction, text)`` (``steps``' progress) returning False
+        stops after the current frame, or before the first while a cold start looks ahead. ``render_frame(path)``
+        renders the scene's current frame to ``path`` atomically."""
         steps = self.steps(render_frame)
         try:
-            for fraction, frame in steps:
-                if progress is not None and progress(fraction, f"frame {frame}") is False:
+            for fraction, text in steps:
+                if progress is not None and progress(fraction, text) is False:
                     break
         finally:
             steps.close()
         return self.report
 
     def steps(self, render_frame: Callable[[str], None] | None = None):
-        """The bake one frame at a time (for a modal operator): yields (fraction done, frame) after each frame it
-        renders; closing the generator ends the bake cleanly after the last finished frame."""
+        """The bake one frame at a time (for a modal operator): yields (fraction done, what it did: "frame 12")
+        after each frame it renders, and every ``LOOK_AHEAD_STRETCH`` seconds while a cold start looks over the
+        sequence for what moves; closing the generator ends the bake cleanly after the last finished frame."""
         render_frame = render_frame or (lambda path: render_to(self.scene, path))
         report = self.report = BakeReport()
         scene = self.scene
@@ -249,7 +254,7 @@ class Bake:
                     report.skipped.append(frame)
                     continue
                 if state is None:
-                    state, after = self._nearest_state(frame)
+                    state, after = yield from self._nearest_state(frame, number / len(self.frames))
                 for earlier in range(after + 1, frame):  # frames another bake rendered: their lights, no pixels
                     place_only(scene, state, earlier)
                     report.replayed.append(earlier)
@@ -268,7 +273,7 @@ class Bake:
                                       "reused": bool(info.get("reused")), "rays": stats.get("rays"),
                                       "bvh_builds": state.bvh_builds,
                                       "seconds": sum(stats.get("seconds", {}).values())})
-                yield (number + 1) / len(self.frames), frame
+                yield (number + 1) / len(self.frames), f"frame {frame}"
         finally:
             if state is not None:
                 state.close()
@@ -277,8 +282,9 @@ class Bake:
             scene.frame_set(original_frame)
             self.release()
 
-    def _nearest_state(self, frame: int) -> tuple[SequenceState, int]:
-        """(state, the frame it is after) to continue from before ``frame``: the latest state saved in the folder
+    def _nearest_state(self, frame: int, fraction: float):
+        """(state, the frame it is after) to continue from before ``frame``, returned by a generator that yields
+        ``steps``' progress (``fraction`` done) while a cold start looks ahead: the latest state saved in the folder
         from frame ``first - 1`` on, else a cold start before ``first``."""
         for saved in reversed([g for g in saved_state_frames(self.out_dir) if self.first - 1 <= g < frame]):
             path = _state_path(self.out_dir, saved)
@@ -295,7 +301,17 @@ class Bake:
             return state, saved
         state = SequenceState(self.scene.vpl_gi.method)
         if getattr(METHODS.get(state.method), "USES_STILL", False):
-            state.animated = animated_objects(self.scene, range(self.first, self.last + 1))
+            looking = looking_over(self.scene, range(self.first, self.last + 1), LOOK_AHEAD_STRETCH)
+            try:
+                while state.animated is None:
+                    try:
+                        looked = next(looking)
+                    except StopIteration as done:
+                        state.animated = done.value
+                    else:
+                        yield fraction, f"looking over frame {looked} of {self.first}-{self.last} for what moves"
+            finally:
+                looking.close()  # stopped while looking: the scene back at its frame now
             state.learns = True  # and what the look-ahead cannot see (an object hidden in the viewport only)
         return state, self.first - 1
 
@@ -390,7 +406,7 @@ class VPLGI_OT_bake_sequence(bpy.types.Operator):
         if event.type != "TIMER":
             return {"PASS_THROUGH"}
         try:
-            fraction, frame = next(self._steps)
+            fraction, text = next(self._steps)
         except StopIteration:
             self._finish(context)
             self.report({"INFO"}, f"baked {len(self._bake.report.rendered)} frames to {self._bake.out_dir}")
@@ -400,7 +416,7 @@ class VPLGI_OT_bake_sequence(bpy.types.Operator):
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
         context.window_manager.progress_update(int(round(fraction * len(self._bake.frames))))
-        context.workspace.status_text_set(f"VPL GI bake: frame {frame} done ({fraction * 100:.0f} %), ESC to stop")
+        context.workspace.status_text_set(f"VPL GI bake: {text} ({fraction * 100:.0f} %), ESC to stop")
         return {"RUNNING_MODAL"}
 
     def _finish(self, context):

@@ -120,9 +120,14 @@ def cmd_bake(args) -> int:
     except BakeError as err:
         raise UserError(str(err)) from None
 
+    printed = []
+
     def progress(fraction, text):
-        entry = bake.report.frames[-1] if bake.report.frames else None
-        if entry is not None:
+        entry = bake.report.frames[-1] if len(bake.report.frames) > len(printed) else None
+        if entry is None:  # a step that rendered nothing: a cold start looking over the frames for what moves
+            print(text, flush=True)
+        else:
+            printed.append(entry)
             traced = f" ({entry['light_path_rays']} rays)" if entry.get("light_path_rays") is not None else ""
             print(f"{text}: {entry['light_paths'] if entry['light_paths'] is not None else '-'} light paths{traced}"
                   f"{' (reused)' if entry['reused'] else ''}, {(entry['rays'] or 0) / 1e6:.2f} M rays, "

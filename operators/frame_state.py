@@ -10,6 +10,8 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
+import math
+import time
 
 import numpy as np
 
@@ -73,11 +75,25 @@ def animated_objects(scene, frames) -> tuple[str, ...]:
     frame's evaluated objects (as the scene's view layer evaluates them) digested by their instances' transforms,
     their meshes' vertices and whether they are hidden from render, a few milliseconds a frame for 150,000
     triangles. The scene is left at the frame it was at."""
+    try:
+        next(looking_over(scene, frames, every=math.inf))  # never pauses: runs to its end
+    except StopIteration as done:
+        return done.value
+    raise AssertionError("looking_over paused without being asked to")
+
+
+def looking_over(scene, frames, every: float):
+    """``animated_objects`` a stretch at a time, for work that must answer in between (a modal operator's timer
+    ticks: progress, ESC): yields the frame it looked at last whenever ``every`` seconds have passed since it began
+    or last paused, and returns the names. Closed early, it puts the scene back at its frame as well. A rig's
+    evaluation can take a tenth of a second a frame: 250 frames would otherwise hold the interface for half a
+    minute."""
     import bpy
     seen: dict[str, set[str]] = {}
     present: dict[str, int] = {}
     frames = list(frames)
     current = scene.frame_current
+    since = time.perf_counter()
     try:
         for frame in frames:
             scene.frame_set(frame)
@@ -95,6 +111,9 @@ def animated_objects(scene, frames) -> tuple[str, ...]:
             for name, digest in digests.items():
                 seen.setdefault(name, set()).add(digest.hexdigest())
                 present[name] = present.get(name, 0) + 1
+            if time.perf_counter() - since >= every:
+                yield frame
+                since = time.perf_counter()
     finally:
         scene.frame_set(current)
     return tuple(sorted(name for name, shapes in seen.items() if len(shapes) > 1 or present[name] < len(frames)))

@@ -244,6 +244,33 @@ def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, 
     assert (tmp_path / "chunk" / "frame_0002.exr").read_bytes() == (tmp_path / "to2" / "frame_0002.exr").read_bytes()
 
 
+def test_a_cold_start_looks_ahead_in_steps_that_report_progress_and_can_stop(ext, tmp_path, monkeypatch):
+    """A rig can take a tenth of a second a frame to evaluate, so a vbnl bake's look-ahead over 250 frames would
+    hold the interface for half a minute: it pauses every ``LOOK_AHEAD_STRETCH`` seconds (here 0: every frame) with
+    its progress, where a stop (ESC) ends the bake before any frame, with the scene back at its frame; started
+    again, the bake looks ahead and renders every frame."""
+    import bpy
+    from vpl_gi.operators import bake, engine
+    scene = _small_scene(bpy, engine, "seq_moving_object")
+    scene.vpl_gi.method = "vbnl"
+    scene.frame_start, scene.frame_end = 3, 5
+    scene.frame_set(1)
+    monkeypatch.setattr(bake, "LOOK_AHEAD_STRETCH", 0.0)
+    told = []
+
+    def stop(fraction, text):
+        told.append(text)
+        return False
+    report = bake.Bake(scene, str(tmp_path / "b"), range(3, 6)).run(progress=stop)
+    assert told == ["looking over frame 3 of 3-5 for what moves"] and report.rendered == []
+    assert scene.frame_current == 1 and frames_in(tmp_path / "b") == []
+    told.clear()
+    report = bake.Bake(scene, str(tmp_path / "b"), range(3, 6)).run(progress=lambda f, text: told.append((f, text)))
+    assert told == [(0.0, f"looking over frame {f} of 3-5 for what moves") for f in (3, 4, 5)] + \
+        [((f - 2) / 3, f"frame {f}") for f in (3, 4, 5)]
+    assert report.rendered == [3, 4, 5] and scene.frame_current == 1
+
+
 def _output_settings(scene) -> dict:
     """What a bake may touch of the user's scene: the output path, file extension, stamps, current frame and every
     setting of the image format (its colour spaces too)."""
