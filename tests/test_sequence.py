@@ -223,3 +223,28 @@ def test_a_state_that_learns_names_each_object_once_it_has_moved():
     state.close()
     assert named == [None, ("Block",), ("Block",), ("Block",)]
     assert not np.array_equal(lights[0], lights[1]) and np.array_equal(lights[1], lights[2])
+
+
+def test_an_object_learnt_to_move_at_the_scenes_edge_leaves_the_lights_where_they_were():
+    """A speck below the floor, out of every ray's way, stretches the scene's bounds and moves: learnt in frame 2,
+    it leaves the still scene, whose tracer takes its float32 coordinates from the first frame's centre, so vbnl's
+    lights stay where they were to the bit (with the centre of its own bounds, rounding moved them all over the
+    room). The centre is pickled: a resumed sequence traces from it too."""
+    from test_path_verification import room_with_block
+
+    def scene(x):
+        room = room_with_block(0.0)
+        speck = np.array([[[x, 0, -5], [x + 0.01, 0, -5], [x, 0.01, -5]]], float)
+        return Scene.build(np.concatenate([room.triangles, speck]), room.materials, room.lights, room.camera,
+                           object_id=[*room.object_id, 3], object_names=[*room.object_names, "Speck"],
+                           max_bounces=3)
+    state = SequenceState("vbnl")
+    state.learns = True
+    lights = []
+    for frame, x in ((1, -4.0), (2, 4.0)):
+        render(scene(x), settings("vbnl", frame_seed(0, frame)), sequence=state)
+        lights.append(state.lights.position.copy())
+    assert np.array_equal(lights[0], lights[1])
+    assert state.animated == ("Speck",) and state._still[1].center.tolist() == state.center.tolist()
+    assert SequenceState.loads(state.dumps()).center.tolist() == state.center.tolist()
+    state.close()

@@ -55,9 +55,16 @@ class Hits:
 class Tracer:
     """Closest-hit and occlusion queries against the scene's triangles."""
 
-    def __init__(self, triangles: np.ndarray, threads: int | None = None, cutouts=None, seed: int = 0):
+    def __init__(self, triangles: np.ndarray, threads: int | None = None, cutouts=None, seed: int = 0,
+                 center: np.ndarray | None = None):
+        """``center``: the point embree's float32 coordinates are taken from (default: the middle of the
+        triangles' bounds). A tracer built again for a changed scene (a sequence's next frame, the scene without
+        what moves) given the old one's traces what did not change to the same bits."""
         tri = np.asarray(triangles, dtype=np.float64).reshape(-1, 3, 3)
-        self.center = 0.5 * (tri.min(axis=(0, 1)) + tri.max(axis=(0, 1))) if len(tri) else np.zeros(3)
+        if center is not None:
+            self.center = np.array(center, np.float64)
+        else:
+            self.center = 0.5 * (tri.min(axis=(0, 1)) + tri.max(axis=(0, 1))) if len(tri) else np.zeros(3)
         tri = np.ascontiguousarray(tri - self.center, dtype=np.float32)
         self.triangle_count = len(tri)
         self.threads = max(1, threads or os.cpu_count() or 1)

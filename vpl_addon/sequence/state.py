@@ -41,7 +41,8 @@ from .motion import Motion, Snapshot
 # changes a field, so a state saved by an earlier engine is refused (the bake starts cold) rather than failing on a
 # missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas. 3: vbnl's
 # photon lights keep their light tree (``PhotonLights.tree``). 4: the state keeps the objects that move in the sequence
-# (``SequenceState.animated``). 5: vbnl's photon lights keep their reach (``PhotonLights.reach``).
+# (``SequenceState.animated``). 5: vbnl's photon lights keep their reach (``PhotonLights.reach``); the state keeps
+# its tracers' centre (``SequenceState.center``).
 STATE_FORMAT = 5
 
 
@@ -55,14 +56,15 @@ def _hex(*values) -> str:
     return hashlib.blake2b(repr(values).encode(), digest_size=16).hexdigest()
 
 
-def _kept(held: tuple[str, Tracer] | None, digest: str, scene, threads: int | None) -> tuple[str, Tracer]:
-    """``held`` (digest, tracer) if it was built for ``digest``, else a tracer of ``scene``'s triangles (the old one
-    closed); its ray count reset and the scene's cut-outs set (alpha may change from frame to frame without the
-    triangles)."""
+def _kept(held: tuple[str, Tracer] | None, digest: str, scene, threads: int | None,
+          center: np.ndarray | None) -> tuple[str, Tracer]:
+    """``held`` (digest, tracer) if it was built for ``digest``, else a tracer of ``scene``'s triangles taken from
+    ``center`` (the old one closed); its ray count reset and the scene's cut-outs set (alpha may change from frame
+    to frame without the triangles)."""
     if held is None or held[0] != digest:
         if held is not None:
             held[1].close()
-        held = digest, Tracer(scene.triangles, threads=threads)
+        held = digest, Tracer(scene.triangles, threads=threads, center=center)
     held[1].rays_traced = 0
     held[1].cutouts = cutouts(scene)
     return held
@@ -85,6 +87,11 @@ class SequenceState:
         # the names of the objects that move anywhere in the sequence (None: not known, as in the viewport)
         self.animated: tuple[str, ...] | None = None
         self.learns = False  # ``animated`` gains each frame's moved objects (an animation render, a bake)
+        # the point every frame's tracers take their float32 coordinates from: the first frame's centre, so what
+        # stands still is traced to the same bits in every frame (a centre that moved with the bounds, an object
+        # moving at the scene's edge or one learnt to move, moved lights all over the room); pickled, so a resumed
+        # bake traces as an unbroken one
+        self.center: np.ndarray | None = None
         self._whole: tuple[str, Tracer] | None = None  # (digest of the triangles and threads, their tracer)
         self._still: tuple[str, Tracer] | None = None  # (digest of the still objects and threads, their tracer)
         self._threads: int | None = None  # the threads the tracer was asked for
@@ -99,7 +106,9 @@ class SequenceState:
         if self.learns and not self.motion.first and self.motion.moved_objects:
             self.animated = tuple(sorted({*(self.animated or ()), *self.motion.moved_objects}))
         held, self._threads = self._whole, threads
-        self._whole = _kept(held, _hex(snapshot.triangles, threads), scene, threads)
+        self._whole = _kept(held, _hex(snapshot.triangles, threads), scene, threads, self.center)
+        if self.center is None:
+            self.center = self._whole[1].center
         if self._whole is not held:
             self.bvh_builds += 1
         return self._whole[1]
@@ -113,7 +122,7 @@ class SequenceState:
             return None
         digest = _hex(sorted((name, d) for name, d in self.snapshot.objects.items() if name not in self.animated),
                       self._threads)
-        self._still = _kept(self._still, digest, rest, self._threads)
+        self._still = _kept(self._still, digest, rest, self._threads, self.center)
         return rest, self._still[1]
 
     def place(self, module, context, settings):
