@@ -28,6 +28,7 @@ import os
 import re
 import socket
 import tempfile
+import time
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -36,7 +37,7 @@ import bpy
 from ..vpl_addon.methods import METHODS
 from ..vpl_addon.sequence.state import SequenceState
 from . import engine
-from .frame_state import looking_over, rendering, settings_key
+from .frame_state import MovingObjects, rendering, settings_key
 from .output import _alive, render_to
 
 MANIFEST = "bake.json"
@@ -170,7 +171,7 @@ class Bake:
         if self.first > frames.start:
             raise BakeError(f"the sequence starts at frame {self.first}, after the chunk's first frame {frames.start}")
         self.scene, self.out_dir, self.frames = scene, os.path.abspath(out_dir), frames
-        # the frames looked over for what moves (``animated_objects``): from the sequence's first to the later of
+        # the frames looked over for what moves (``MovingObjects``): from the sequence's first to the later of
         # its last and the scene's end frame, the same for every chunk of a job that lies within the scene's range
         self.last = max(frames.stop - 1 if last is None else last, scene.frame_end)
         self.key = settings_key(scene)
@@ -301,17 +302,13 @@ class Bake:
             return state, saved
         state = SequenceState(self.scene.vpl_gi.method)
         if getattr(METHODS.get(state.method), "USES_STILL", False):
-            looking = looking_over(self.scene, range(self.first, self.last + 1), LOOK_AHEAD_STRETCH)
-            try:
-                while state.animated is None:
-                    try:
-                        looked = next(looking)
-                    except StopIteration as done:
-                        state.animated = done.value
-                    else:
-                        yield fraction, f"looking over frame {looked} of {self.first}-{self.last} for what moves"
-            finally:
-                looking.close()  # stopped while looking: the scene back at its frame now
+            movers, since = MovingObjects(self.scene), time.perf_counter()
+            for looked in range(self.first, self.last + 1):  # ``steps`` puts the scene back at its frame if stopped
+                movers.look(looked)
+                if time.perf_counter() - since >= LOOK_AHEAD_STRETCH:
+                    yield fraction, f"looking over frame {looked} of {self.first}-{self.last} for what moves"
+                    since = time.perf_counter()
+            state.animated = movers.names()
             state.learns = True  # and what the look-ahead cannot see (an object hidden in the viewport only)
         return state, self.first - 1
 

@@ -2,7 +2,7 @@
 
 The engine reads it (``active_sequence``); a bake sets it around each frame (``rendering``); for ``blender -b -a``
 (``render(animation=True)``) it is kept here per scene and settings. Both the engine and the bake import this
-module and neither imports the other for it, so the state has one owner. ``animated_objects`` finds what a bake's
+module and neither imports the other for it, so the state has one owner. ``MovingObjects`` finds what a bake's
 state is told moves in its sequence (``SequenceState.animated``).
 """
 from __future__ import annotations
@@ -10,8 +10,6 @@ from __future__ import annotations
 import contextlib
 import hashlib
 import json
-import math
-import time
 
 import numpy as np
 
@@ -71,52 +69,54 @@ def active_sequence(scene, settings, is_animation: bool):
 
 
 def animated_objects(scene, frames) -> tuple[str, ...]:
-    """The names of the geometry objects that move, deform, appear or vanish anywhere in ``frames`` (sorted): each
-    frame's evaluated objects (as the scene's view layer evaluates them) digested by their instances' transforms,
-    their meshes' vertices and whether they are hidden from render, a few milliseconds a frame for 150,000
-    triangles. The scene is left at the frame it was at."""
-    try:
-        next(looking_over(scene, frames, every=math.inf))  # never pauses: runs to its end
-    except StopIteration as done:
-        return done.value
-    raise AssertionError("looking_over paused without being asked to")
-
-
-def looking_over(scene, frames, every: float):
-    """``animated_objects`` a stretch at a time, for work that must answer in between (a modal operator's timer
-    ticks: progress, ESC): yields the frame it looked at last whenever ``every`` seconds have passed since it began
-    or last paused, and returns the names. Closed early, it puts the scene back at its frame as well. A rig's
-    evaluation can take a tenth of a second a frame: 250 frames would otherwise hold the interface for half a
-    minute."""
-    import bpy
-    seen: dict[str, set[str]] = {}
-    present: dict[str, int] = {}
-    frames = list(frames)
-    current = scene.frame_current
-    since = time.perf_counter()
+    """The names of the geometry objects that move, deform, appear or vanish anywhere in ``frames`` (sorted),
+    ``MovingObjects`` looked over every frame at once. The scene is left at the frame it was at."""
+    movers, current = MovingObjects(scene), scene.frame_current
     try:
         for frame in frames:
-            scene.frame_set(frame)
-            depsgraph = bpy.context.evaluated_depsgraph_get() if bpy.context.scene == scene else \
-                scene.view_layers[0].depsgraph
-            digests: dict[str, hashlib.blake2b] = {}
-            for inst in depsgraph.object_instances:
-                obj = inst.object
-                if obj.type not in GEOMETRY_TYPES:
-                    continue
-                if obj.name not in digests:  # hidden from render in some frames: it vanishes from those
-                    digests[obj.name] = hashlib.blake2b(_vertices(obj).tobytes() + bytes([obj.hide_render]),
-                                                        digest_size=16)
-                digests[obj.name].update(np.array(inst.matrix_world, np.float64).tobytes())
-            for name, digest in digests.items():
-                seen.setdefault(name, set()).add(digest.hexdigest())
-                present[name] = present.get(name, 0) + 1
-            if time.perf_counter() - since >= every:
-                yield frame
-                since = time.perf_counter()
+            movers.look(frame)
     finally:
         scene.frame_set(current)
-    return tuple(sorted(name for name, shapes in seen.items() if len(shapes) > 1 or present[name] < len(frames)))
+    return movers.names()
+
+
+class MovingObjects:
+    """What moves in the frames looked at so far (``look``, one frame at a time, so that work which must answer in
+    between, a bake's steps, can: a rig's evaluation can take a tenth of a second a frame, and 250 frames would hold
+    the interface for half a minute). Each frame's evaluated objects (as the scene's view layer evaluates them) are
+    digested by their instances' transforms, their meshes' vertices and whether they are hidden from render, a few
+    milliseconds a frame for 150,000 triangles. ``look`` leaves the scene at the frame it looked at."""
+
+    def __init__(self, scene):
+        self.scene = scene
+        self.looked = 0
+        self._seen: dict[str, set[str]] = {}
+        self._present: dict[str, int] = {}
+
+    def look(self, frame: int) -> None:
+        import bpy
+        scene = self.scene
+        scene.frame_set(frame)
+        depsgraph = bpy.context.evaluated_depsgraph_get() if bpy.context.scene == scene else \
+            scene.view_layers[0].depsgraph
+        digests: dict[str, hashlib.blake2b] = {}
+        for inst in depsgraph.object_instances:
+            obj = inst.object
+            if obj.type not in GEOMETRY_TYPES:
+                continue
+            if obj.name not in digests:  # hidden from render in some frames: it vanishes from those
+                digests[obj.name] = hashlib.blake2b(_vertices(obj).tobytes() + bytes([obj.hide_render]),
+                                                    digest_size=16)
+            digests[obj.name].update(np.array(inst.matrix_world, np.float64).tobytes())
+        for name, digest in digests.items():
+            self._seen.setdefault(name, set()).add(digest.hexdigest())
+            self._present[name] = self._present.get(name, 0) + 1
+        self.looked += 1
+
+    def names(self) -> tuple[str, ...]:
+        """The objects that changed, or were missing from some frame, in the frames looked at (sorted)."""
+        return tuple(sorted(name for name, shapes in self._seen.items()
+                            if len(shapes) > 1 or self._present[name] < self.looked))
 
 
 def _vertices(obj) -> np.ndarray:
