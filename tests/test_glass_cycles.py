@@ -1,7 +1,9 @@
 """A room lit only by the sun through a glass window pane (a 2 cm Glass BSDF slab in an opening of one wall): the
 engine's ``Diffuse Indirect`` against Cycles on the same .blend. Cycles finds the sunlit patch on the floor only by
 BSDF samples that pass the pane (its shadow rays stop at glass), so it counts the patch as indirect light, and so
-does the engine (``materials.cutouts``: shadow rays through glass report it)."""
+does the engine (``materials.cutouts``: shadow rays through glass report it). And a smooth glass ball (Principled BSDF,
+Transmission Weight 1) in front of a wall glowing red on its left and green on its right: a ball lens shows the wall
+turned over, as Cycles renders it (the camera's rays refract)."""
 import numpy as np
 import pytest
 
@@ -54,3 +56,50 @@ def test_the_sun_through_a_glass_pane_lights_the_room_as_in_cycles(ext, tmp_path
     print(f"window: Diffuse Indirect ratio {found['mean_ratio']:.3f} rMAE {found['rmae']:.3f} (Cycles' caustic "
           f"through the pane is noise at 1024 spp; the mean is the measure)")
     assert abs(found["mean_ratio"] - 1.0) <= 0.10
+
+
+def ball_blend(tmp_path):
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x = scene.render.resolution_y = 40
+    red = shader_material(bpy, "Red", "ShaderNodeEmission", {"Color": (1.0, 0.0, 0.0, 1.0), "Strength": 1.0})
+    green = shader_material(bpy, "Green", "ShaderNodeEmission", {"Color": (0.0, 1.0, 0.0, 1.0), "Strength": 1.0})
+    add_mesh(bpy, "Left", [(-4, 3, -4), (0, 3, -4), (0, 3, 4), (-4, 3, 4)], [(0, 3, 2, 1)], red)
+    add_mesh(bpy, "Right", [(0, 3, -4), (4, 3, -4), (4, 3, 4), (0, 3, 4)], [(0, 3, 2, 1)], green)
+    bpy.ops.mesh.primitive_uv_sphere_add(segments=48, ring_count=24, radius=1.0)
+    ball = bpy.context.active_object
+    bpy.ops.object.shade_smooth()
+    glass = bpy.data.materials.new("Glass")
+    if glass.node_tree is None:  # Blender < 5.0
+        glass.use_nodes = True
+    bsdf = glass.node_tree.nodes["Principled BSDF"]
+    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Roughness"].default_value = 0.0
+    bsdf.inputs["Transmission Weight"].default_value = 1.0
+    ball.data.materials.append(glass)
+    camera_and_black_world(bpy, scene, (0.0, -4.0, 0.0), (np.radians(90.0), 0.0, 0.0))
+    scene.camera.data.lens = 50.0
+    path = tmp_path / "ball.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def test_a_glass_ball_shows_the_wall_behind_it_refracted_as_cycles_does(ext, tmp_path):
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    blend = ball_blend(tmp_path)
+    ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles.exr"
+    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "64", "--method", "none")
+    assert code == 0, stderr
+    code, _, stderr = run_cli("reference", blend, "-o", cycles, "--samples", "256", "--cache-dir", tmp_path / "c")
+    assert code == 0, stderr
+    a, b = (read_passes(str(p))[0]["Combined"][..., :3] for p in (ours, cycles))
+    y, x = np.mgrid[:40, :40] + 0.5
+    r = np.hypot(x - 20, y - 20)
+    disc = r < 0.6 * 20 * (1.0 / np.sqrt(4.0 ** 2 - 1.0)) * 50.0 / 18.0  # well inside the ball's image
+    left, right = disc & (x < 17), disc & (x > 23)
+    for image in (a, b):  # through the ball the wall's sides swap: green on the left, red on the right
+        assert image[left, 1].mean() > 2.0 * image[left, 0].mean()
+        assert image[right, 0].mean() > 2.0 * image[right, 1].mean()
+    assert abs(a[disc].mean() / b[disc].mean() - 1.0) < 0.05  # the light Fresnel lets through
+    assert np.abs(a[disc] - b[disc]).mean() < 0.1 * b[disc].mean()

@@ -126,33 +126,48 @@ class Tracer:
 
     def intersect_through(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray]:
         """(``intersect``'s hits, (N,) bool: which rays went through glass on the way)."""
+        hits, crossed, _ = self._layers(origins, dirs, tmax, bend=False)
+        return hits, crossed
+
+    def intersect_bent(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray]:
+        """``intersect`` for rays that refract at glass as Cycles' camera rays do (``Cutouts.passes`` with
+        ``bend``): their hits, ``t`` the length of the whole bent path, and (N,3) the unit direction each ray has
+        at its hit (or leaves the scene with)."""
+        hits, _, heading = self._layers(origins, dirs, tmax, bend=True)
+        return hits, heading
+
+    def _layers(self, origins, dirs, tmax, bend: bool) -> tuple[Hits, np.ndarray, np.ndarray]:
+        """Closest hits through the holes and panes of ``cutouts``, which rays went through glass, and the
+        directions the rays end with (``dirs`` itself unless ``bend``)."""
         hits = self._closest(origins, dirs, tmax)
         crossed = np.zeros(len(origins), bool)
         if self.cutouts is None:
-            return hits, crossed
+            return hits, crossed, dirs
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         todo = np.nonzero(hits.hit)[0]
         rng = self._stream(origins, dirs)
+        base, heading = np.array(origins, np.float64), np.array(dirs, np.float64)  # each ray's last segment
+        walked = np.zeros(len(origins))  # the path's length where that segment starts
         for _ in range(CUTOUT_LAYERS):
             todo = todo[self.cutouts.prims[hits.prim[todo]]]
             if not len(todo):
                 break
-            d, ng = dirs[todo], self._face_normals()[hits.prim[todo]]
-            cos = np.einsum("ij,ij->i", ng, d)
-            on, glass = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], cos, rng)
+            d, ng = heading[todo], self._face_normals()[hits.prim[todo]]
+            on, glass, onward = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], d, ng, rng, bend)
             crossed[todo[glass]] = True
-            todo, d, ng, cos = todo[on], d[on], ng[on], cos[on]
+            todo, d, ng, onward = todo[on], d[on], ng[on], onward[on]
             if not len(todo):
                 break
-            origin = np.asarray(origins[todo], np.float64)
-            through = np.where((cos >= 0.0)[:, None], ng, -ng)
-            start = self.offset_origin(origin + d * hits.t[todo][:, None], through)
-            t = np.einsum("ij,ij->i", start - origin, d)  # where the new segment starts along the ray
-            beyond = self._closest(start, d, tmax[todo] - t)
+            point = base[todo] + d * (hits.t[todo] - walked[todo])[:, None]
+            through = np.where((np.einsum("ij,ij->i", ng, d) >= 0.0)[:, None], ng, -ng)
+            start = self.offset_origin(point, through)
+            walked[todo] = hits.t[todo] + np.einsum("ij,ij->i", start - point, d)  # where the new segment starts
+            base[todo], heading[todo] = start, onward
+            beyond = self._closest(start, onward, tmax[todo] - walked[todo])
             hits.prim[todo], hits.u[todo], hits.v[todo] = beyond.prim, beyond.u, beyond.v
-            hits.t[todo] = t + beyond.t  # inf for rays that now miss
+            hits.t[todo] = walked[todo] + beyond.t  # inf for rays that now miss
             todo = todo[beyond.hit]
-        return hits, crossed
+        return hits, crossed, heading
 
     def _stream(self, origins, dirs) -> np.random.Generator:
         """Random numbers for the cut-out decisions of one batch, seeded by the tracer's seed and the batch's

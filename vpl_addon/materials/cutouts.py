@@ -5,11 +5,14 @@ a stops there with probability a and goes on through it otherwise (Cycles mixes 
 1 - a, so the expected light is the same); alpha clip (a glTF MASK material, ``TextureMap.cutoff``) makes a 0 or 1,
 alpha blend leaves it in between.
 
-Glass (``Materials.glass``: Transmission Weight >= 0.5, or a Glass BSDF): a thin dielectric sheet. A ray goes on
-straight through with probability T = (1 - F(cos theta, IOR)) x the luminance of its Base Color (Walter et al. 2007,
-eq. 22 for F), which is what a pane of parallel faces passes per face; where it stops, ``surface.shade`` makes the
-point a white mirror of the glass's roughness, so the light it reflects is 1 - T in expectation. Straight through
-is exact in direction for a pane and a thin sheet, an approximation for a lens (no refraction); the tint is grey.
+Glass (``Materials.glass``: Transmission Weight >= 0.5, or a Glass BSDF): a smooth dielectric surface. A ray goes
+on through it with probability T = (1 - F(cos theta, IOR)) x the luminance of its Base Color (Walter et al. 2007,
+eq. 22 for F); where it stops, ``surface.shade`` makes the point a white mirror of the glass's roughness, so the light
+it reflects is 1 - T in expectation. Camera rays refract as they go on (``Tracer.intersect_bent``: Snell's law about
+the interpolated normal, F of the interface from the side the ray comes from), so a glass ball shows the room upside
+down as in Cycles; every other ray (shadow rays, light paths, the gather's) takes glass as a thin sheet and goes on
+straight, with F at the IOR on both faces, which is exact for a pane and keeps shadow rays straight segments. The
+tint is grey; rough glass refracts as smooth glass.
 
 ``Tracer`` asks a ``Cutouts`` at every hit on such a triangle, so camera rays, shadow rays, light paths and the
 gather's visibility all see the same holes and panes; it also reports which rays went through glass, whose light
@@ -50,20 +53,59 @@ class Cutouts:
                 out[linked[sel]] = at_points(m.maps[t], scene, prim[linked[sel]], bary[sel], scalar=True)
         return np.clip(np.nan_to_num(out, nan=1.0), 0.0, 1.0)
 
-    def passes(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, cos: np.ndarray,
-               rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
-        """(goes on (N,) bool, through glass (N,) bool) for rays hitting (prim, u, v) at cosines ``cos`` with the
-        geometric normal: each goes on with probability 1 - alpha + alpha T (T of glass, 0 otherwise)."""
+    def passes(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, d: np.ndarray, ng: np.ndarray,
+               rng: np.random.Generator, bend: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(goes on (N,) bool, through glass (N,) bool, (N,3) the unit directions they go on with) for rays of unit
+        directions ``d`` hitting (prim, u, v) of geometric normals ``ng``: each goes on with probability
+        1 - alpha + alpha T (T of glass, 0 otherwise), through a hole straight.
+
+        Without ``bend`` a pane is a thin sheet: the ray goes on straight and T takes F at the IOR from either side.
+        With ``bend`` the glass is a solid's surface, as Cycles' Glass BSDF renders it: F is the interface's (the
+        IOR relative to the side the ray comes from, which the triangle's winding tells, as Cycles' backfacing flag
+        does; past the critical angle inside F = 1 and the ray stops there as a mirror) and the ray refracts about
+        the interpolated normal (Snell's law, Walter et al. 2007 eq. 40); smooth whatever its Roughness."""
         alpha = self.opacity(prim, u, v)
         mat = self._scene.material[prim]
-        glass = self._glass[mat]
+        glass = np.nonzero(self._glass[mat])[0]
         clear = np.zeros(len(prim))
-        if glass.any():
+        onward = np.array(d, np.float64)
+        if len(glass):
             ior = self._scene.materials.ior[mat[glass]].astype(np.float64)
-            clear[glass] = (1.0 - dielectric_fresnel(cos[glass], ior)) * self._clear[mat[glass]]
+            cos = np.einsum("ij,ij->i", ng[glass], d[glass])
+            if bend:
+                normal = self._normals(prim[glass], u[glass], v[glass], ng[glass])
+                ior = np.where(cos < 0.0, ior, 1.0 / ior)
+                cos = np.einsum("ij,ij->i", normal, d[glass])
+            clear[glass] = (1.0 - dielectric_fresnel(cos, ior)) * self._clear[mat[glass]]
         x = rng.random(len(prim))
         hole = x >= alpha
-        return hole | (x < alpha * clear), ~hole & (x < alpha * clear)
+        through = ~hole & (x < alpha * clear)
+        if bend and through.any():
+            rows = np.nonzero(through[glass])[0]
+            onward[glass[rows]] = _refracted(d[glass[rows]], normal[rows], ior[rows], ng[glass[rows]])
+        return hole | through, through, onward
+
+    def _normals(self, prim, u, v, ng) -> np.ndarray:
+        """(N,3) the unit interpolated normals at (prim, u, v), on the side of the geometric normals ``ng``."""
+        corners = self._scene.normals[prim].astype(np.float64)
+        n = corners[:, 0] * (1.0 - u - v)[:, None] + corners[:, 1] * u[:, None] + corners[:, 2] * v[:, None]
+        n *= np.where(np.einsum("ij,ij->i", n, ng) < 0.0, -1.0, 1.0)[:, None]
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.where(length > 1e-12, n / np.maximum(length, 1e-300), ng)
+
+
+def _refracted(d: np.ndarray, n: np.ndarray, eta: np.ndarray, ng: np.ndarray) -> np.ndarray:
+    """Unit directions of rays ``d`` refracted at normals ``n`` (either side) into a medium of relative IOR ``eta``
+    (n_t / n_i), which must not reflect totally: (d + (c - sqrt(eta^2 - 1 + c^2)) n_i) / eta with n_i the normal
+    facing the ray and c = -d . n_i (Walter et al. 2007 eq. 40 written for the transmitted direction). A direction
+    that the interpolated normal would send back across the triangle (``ng``) stays straight."""
+    facing = n * np.where(np.einsum("ij,ij->i", d, n) > 0.0, -1.0, 1.0)[:, None]
+    c = -np.einsum("ij,ij->i", d, facing)
+    g = np.sqrt(np.maximum(eta * eta - 1.0 + c * c, 0.0))
+    t = d + (c - g)[:, None] * facing
+    t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
+    same_side = np.sign(np.einsum("ij,ij->i", t, ng)) == np.sign(np.einsum("ij,ij->i", d, ng))
+    return np.where(same_side[:, None], t, d)
 
 
 def cutouts(scene) -> Cutouts | None:

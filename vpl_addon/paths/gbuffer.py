@@ -19,16 +19,17 @@ from ..materials.surface import Surface, shade
 
 
 def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None):
-    """The unit directions of the camera's rays through image positions (px, py) and what they hit between the clip
-    distances; given ``lights`` (a list), also (N,3) the radiance of the visible lights each ray meets before its
-    surface (``Light.seen``). As in Cycles, a light the camera sees adds its light to what is behind it and hides
-    nothing."""
+    """What the camera's rays through image positions (px, py) hit between the clip distances, refracted by the
+    glass they pass (``Tracer.intersect_bent``), and the unit direction each has there (or leaves with); given
+    ``lights`` (a list), also (N,3) the radiance of the visible lights each ray meets before its surface
+    (``Light.seen``, along the ray as it leaves the camera). As in Cycles, a light the camera sees adds its light to
+    what is behind it and hides nothing."""
     origins, dirs, near = cam.rays(px, py)
     origins = origins + dirs * near[:, None]
     tmax = np.maximum(cam.clip_end - near, 0.0)
-    hits = tracer.intersect(origins, dirs, tmax=tmax)
+    hits, heading = tracer.intersect_bent(origins, dirs, tmax=tmax)
     if lights is None:
-        return dirs, hits
+        return heading, hits
     lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, tmax)
     for light in lights:
         found = light.seen(origins, dirs)
