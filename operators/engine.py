@@ -19,7 +19,7 @@ from ..vpl_addon.core import passes as P
 from ..vpl_addon.core.memory import trim_heap
 from ..vpl_addon.core.passes import BadOutput
 from ..vpl_addon.render import Cancelled, render
-from .extract import ExtractionError, extract
+from .extract import ExtractionError, depth_of_field, extract
 from .frame_state import FRAME_LOG, active_sequence
 from .viewport import ImageTexture, Viewport, view_camera
 
@@ -105,22 +105,30 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             self._viewport.close()
 
     @staticmethod
-    def _view(context, scene):
-        region = context.region
+    def _view(context, depsgraph):
+        """The 3D view's camera; looking through the scene's camera, with its depth of field (none if that cannot be
+        read: extraction names it)."""
+        region, scene, lens = context.region, depsgraph.scene, None
+        if context.region_data.view_perspective == "CAMERA" and scene.camera is not None:
+            camera = scene.camera.evaluated_get(depsgraph)
+            try:
+                lens = depth_of_field(camera, np.array(camera.matrix_world, np.float64), depsgraph)
+            except ExtractionError:
+                lens = None
         return view_camera(context.region_data.view_matrix, context.region_data.window_matrix, region.width,
-                           region.height, scene.vpl_gi)
+                           region.height, scene.vpl_gi, lens)
 
     def view_update(self, context, depsgraph):
         if self._viewport is None:
             self._viewport, self._texture = Viewport(), ImageTexture()
-        self._viewport.update(depsgraph, self._view(context, depsgraph.scene))
+        self._viewport.update(depsgraph, self._view(context, depsgraph))
 
     def view_draw(self, context, depsgraph):
         import gpu
         view = self._viewport
         if view is None:
             return
-        view.look(self._view(context, depsgraph.scene))
+        view.look(self._view(context, depsgraph))
         self.update_stats("VPL GI", view.status)
         if view.frame is not None:
             gpu.state.blend_set("ALPHA_PREMULT")

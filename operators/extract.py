@@ -328,7 +328,38 @@ def camera_of(scene, depsgraph=None) -> Camera:
     film = scene.vpl_gi  # the pixel filter: ours, the scene's Cycles filter until set (``properties``)
     return Camera(matrix, width, height, window, orthographic=cam.type == "ORTHO",
                   clip_start=cam.clip_start, clip_end=cam.clip_end, filter_type=film.pixel_filter_type,
-                  filter_width=film.filter_width, region=render_border(r, width, height))
+                  filter_width=film.filter_width, region=render_border(r, width, height),
+                  **depth_of_field(cam_obj, matrix, depsgraph))
+
+
+def depth_of_field(cam_obj, matrix: np.ndarray, depsgraph=None) -> dict:
+    """``Camera``'s lens settings from the camera's Depth of Field panel, as Cycles reads them (``blender/camera.cpp``):
+    an aperture of radius focal length / (2 f-stop) (1 / (2 f-stop) for an orthographic camera) and the focus
+    distance, or with a Focus Object (and bone) the distance of its origin along the camera's view axis; nothing
+    (a pinhole) with depth of field off or an f-stop that is not finite."""
+    cam = cam_obj.data
+    dof = cam.dof
+    if not dof.use_dof or not math.isfinite(dof.aperture_fstop):
+        return {}
+    fstop = max(dof.aperture_fstop, 1e-5)
+    focus = dof.focus_distance
+    target = dof.focus_object
+    if target is not None:
+        if depsgraph is not None:
+            target = target.evaluated_get(depsgraph)
+        at = _matrix(target.matrix_world)
+        bone = target.pose.bones.get(dof.focus_subtarget) if target.pose and dof.focus_subtarget else None
+        if bone is not None:
+            at = at @ _matrix(bone.matrix)
+        view = matrix[:3, 2] / max(np.linalg.norm(matrix[:3, 2]), 1e-300)
+        focus = abs(float(np.dot(view, matrix[:3, 3] - at[:3, 3])))
+    lens = {"aperture": (1.0 if cam.type == "ORTHO" else cam.lens * 1e-3) / (2.0 * fstop), "focus": focus,
+            "blades": int(dof.aperture_blades), "blade_rotation": float(dof.aperture_rotation),
+            "aperture_ratio": float(dof.aperture_ratio)}
+    if not np.isfinite(list(lens.values())).all():
+        raise ExtractionError(f"camera {cam_obj.name!r}: its Depth of Field has values that are not finite (focus "
+                              f"{focus}, lens {cam.lens} mm, ratio {dof.aperture_ratio})")
+    return lens
 
 
 class _Objects:

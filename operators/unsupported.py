@@ -7,11 +7,9 @@ of a material with only a Volume shader (a fog box is not a solid box), Volume o
 particle systems drawn as paths) and point clouds. Approximated: a Volume shader beside a Surface (the surface alone),
 the world's Volume (none), light and shadow linking (every light reaches everything), shadow catchers and holdouts
 (ordinary objects, as Cycles renders a holdout to every ray but the camera's; a Holdout shader black), motion blur (the
-frame's instant), depth of field (a pinhole camera), Cycles' ray visibility and Indirect Only (seen by every ray).
+frame's instant), Cycles' ray visibility and Indirect Only (seen by every ray).
 """
 from __future__ import annotations
-
-import math
 
 from .shader_nodes import MaterialTable, output_shader
 
@@ -32,7 +30,6 @@ CASES = {
                            "to every ray but the camera's)"),
     "holdout shader": ("holdout", "the Holdout shader renders black and opaque, not as a hole in the image"),
     "motion blur": ("motion blur", "the frame renders at its instant, without motion blur"),
-    "depth of field": ("depth of field", "the camera renders as a pinhole, everything in focus"),
     "ray visibility": ("ray visibility", "Cycles' ray visibility and Indirect Only are ignored; these are seen by "
                                          "every ray"),
 }
@@ -78,15 +75,10 @@ class Unsupported:
                 if case in self.met]
 
     def scene(self, depsgraph):
-        """Motion blur, depth of field, the world's volume, and holdout or Indirect Only collections of the view
-        layer."""
+        """Motion blur, the world's volume, and holdout or Indirect Only collections of the view layer."""
         scene = depsgraph.scene
         if scene.render.use_motion_blur:
             self.note("motion blur", f"scene {scene.name!r} (Render > Motion Blur)")
-        camera = None if scene.camera is None else scene.camera.evaluated_get(depsgraph)  # none: the 3D view's
-        fstop = None if camera is None else camera.data.dof.aperture_fstop
-        if camera is not None and camera.data.dof.use_dof and math.isfinite(fstop):  # Cycles: lens / (2 f-stop)
-            self.note("depth of field", f"camera {camera.name!r} (Depth of Field at f/{fstop:.3g})")
         world = depsgraph.scene_eval.world
         if world is not None and output_shader(world, "Volume") is not None:
             self.note("world volume", f"world {world.name!r}")

@@ -22,9 +22,10 @@ from ..vpl_addon.sequence.motion import Motion, Snapshot
 from .extract import ExtractionError, extract
 
 
-def view_camera(view_matrix, window_matrix, width: int, height: int, film=None) -> Camera:
+def view_camera(view_matrix, window_matrix, width: int, height: int, film=None, lens: dict | None = None) -> Camera:
     """The camera of a 3D view from its view matrix (world to view) and window (projection) matrix, ``width`` x
-    ``height`` pixels, with the pixel filter of ``film`` (the scene's ``vpl_gi`` settings, or the default). The
+    ``height`` pixels, with the pixel filter of ``film`` (the scene's ``vpl_gi`` settings, or the default) and the
+    depth of field ``lens`` (``extract.depth_of_field``: a view through the scene's camera, as in Cycles). The
     projection gives the view plane at distance 1 (perspective) or in metres (orthographic) and the clipping
     distances; an orthographic view's rays start at its near plane, which Blender puts behind the eye."""
     view = np.array(view_matrix, np.float64).reshape(4, 4)
@@ -41,6 +42,7 @@ def view_camera(view_matrix, window_matrix, width: int, height: int, film=None) 
         to_world[:3, 3] -= near * to_world[:3, 2] / np.linalg.norm(to_world[:3, 2])  # the eye onto the near plane
         near, far = 0.0, far - near
     extra = {} if film is None else {"filter_type": film.pixel_filter_type, "filter_width": film.filter_width}
+    extra.update(lens or {})
     return Camera(to_world, max(1, int(width)), max(1, int(height)), tuple(float(v) for v in window),
                   orthographic=not perspective, clip_start=float(near), clip_end=float(far), **extra)
 
@@ -57,7 +59,8 @@ def nonfinite_transforms(depsgraph) -> list[str]:
 def _key(camera: Camera) -> bytes:
     """What of a camera changes the picture, as bytes to compare."""
     return np.concatenate([camera.to_world.ravel(), camera.window, [camera.width, camera.height,
-                           camera.orthographic, camera.clip_start, camera.clip_end]]).tobytes()
+                           camera.orthographic, camera.clip_start, camera.clip_end, camera.aperture, camera.focus,
+                           camera.blades, camera.blade_rotation, camera.aperture_ratio]]).tobytes()
 
 
 class Viewport:

@@ -86,6 +86,36 @@ def test_perspective_rays_go_through_the_image_corners():
     assert np.allclose(d[1], np.array([x1, y0, -1]) / np.linalg.norm([x1, y0, -1]))  # bottom right
 
 
+def test_a_thin_lens_sends_a_pixels_rays_from_all_over_its_aperture_to_one_point_of_the_plane_of_focus():
+    from dataclasses import replace
+    k = 4096
+    u = np.random.default_rng(3).random((2, k))
+    for ortho in (False, True):
+        cam = replace(CAM, orthographic=ortho, aperture=0.05, focus=3.0)
+        o, d, near = cam.rays(np.full(k, 2.3), np.full(k, 5.1), lens=(u[0], u[1]))
+        pin_o, pin_d, _ = cam.rays(np.array([2.3]), np.array([5.1]))
+        sharp = pin_o[0] + pin_d[0] * 3.0 / -pin_d[0, 2]  # where the pinhole ray meets the plane z = -3
+        t = (-3.0 - o[:, 2]) / d[:, 2]
+        assert np.allclose(o + d * t[:, None], sharp, atol=1e-9)
+        lens = o - pin_o[0]
+        assert np.allclose(lens[:, 2], 0.0) and np.linalg.norm(lens, axis=1).max() <= 0.05 + 1e-12
+        assert abs(np.mean(np.linalg.norm(lens, axis=1) < 0.05 / np.sqrt(2)) - 0.5) < 0.03  # uniform over the disc
+        if ortho:  # the near clip stays a plane
+            assert np.allclose((o + d * near[:, None])[:, 2], -cam.clip_start, rtol=1e-9)
+    # six blades: the regular hexagon, uniform (its inner disc of radius cos 30 deg holds pi cos^2 30 / area of it)
+    cam = replace(CAM, aperture=1.0, blades=6, blade_rotation=0.3)
+    x, y = cam.aperture_points(u[0], u[1])
+    angle = np.arctan2(y, x) - 0.3
+    edge = np.cos(np.pi / 6) / np.cos(((angle + np.pi / 6) % (np.pi / 3)) - np.pi / 6)  # its radius there
+    assert (np.hypot(x, y) <= edge + 1e-12).all() and np.hypot(x, y).max() > 0.97
+    inner = np.pi * np.cos(np.pi / 6) ** 2 / (1.5 * np.sqrt(3))
+    assert abs(np.mean(np.hypot(x, y) < np.cos(np.pi / 6)) - inner) < 0.03
+    x, y = replace(CAM, aperture=1.0, aperture_ratio=2.0).aperture_points(u[0], u[1])  # anamorphic: half as wide
+    assert abs(x.max() - 0.5) < 0.02 and abs(y.max() - 1.0) < 0.02
+    assert np.array_equal(replace(CAM, aperture=0.05).rays(np.array([1.0]), np.array([1.0]))[1],
+                          CAM.rays(np.array([1.0]), np.array([1.0]))[1])  # no lens numbers: the pinhole's ray
+
+
 def test_tracer_hits_misses_and_occludes():
     tri = np.array([[[-1, -1, 0], [1, -1, 0], [0, 1, 0]]], float)
     tracer = Tracer(tri, threads=2)

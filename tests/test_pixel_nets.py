@@ -84,3 +84,19 @@ def test_independent_path_numbers_are_keyed_uniform_and_uncorrelated():
     np.testing.assert_array_equal(paths.independent(5, some, 0, 1, 3), numbers[:, some])
     for other in (numbers[1], numbers[4], paths.numbers(1, every, 0, 1, 3)[0], paths.independent(1, every, 1, 1, 3)[0]):
         assert abs(np.corrcoef(numbers[0], other)[0, 1]) < 0.03
+
+
+def test_a_4d_net_stratifies_the_filter_and_the_lens_together():
+    from vpl_addon.core.sampling import stratified_2d, stratified_4d
+    rng = np.random.default_rng(1)
+    points = np.stack(stratified_4d(50, 16, rng), axis=-1)  # (pixels, samples, 4)
+    assert points.min() >= 0.0 and points.max() < 1.0
+    halves = (points * 2).astype(int) @ [8, 4, 2, 1]
+    assert all(len(set(row)) == 16 for row in halves)  # each of the 16 half-boxes of the 4D cube holds one point
+    quarters = (points[..., :2] * 4).astype(int) @ [4, 1], (points[..., 2:] * 4).astype(int) @ [4, 1]
+    assert all(len(set(row)) == 16 for q in quarters for row in q)  # and each pair is a 2D net
+    # two 2D nets drawn at the same sample indices are one point set shifted twice: 4 of the 16 half-boxes
+    apart = np.stack(stratified_2d(50, 16, rng) + stratified_2d(50, 16, rng), axis=-1)
+    assert max(len(set(row)) for row in (apart * 2).astype(int) @ [8, 4, 2, 1]) == 4
+    assert np.array_equal(np.stack(stratified_4d(3, 16, np.random.default_rng(2))),
+                          np.stack(stratified_4d(3, 16, np.random.default_rng(2))))

@@ -1,5 +1,5 @@
 """What VPL GI does not render (issue 22): light portals, volumes, hair, point clouds, light linking, shadow catchers,
-holdouts, motion blur, depth of field and Cycles' ray visibility are left out or approximated with exactly one warning
+holdouts, motion blur and Cycles' ray visibility are left out or approximated with exactly one warning
 that names the object, material or setting (``operators/unsupported.py``); a portal gives no light and a fog box
 hides nothing."""
 import numpy as np
@@ -129,11 +129,6 @@ def motion_blur(bpy):
     return "motion blur", "(Render > Motion Blur)"
 
 
-def depth_of_field(bpy):
-    bpy.context.scene.camera.data.dof.use_dof = True
-    return "depth of field", "camera 'Camera' (Depth of Field at f/2.8)"
-
-
 def ray_visibility(bpy):
     _cube(bpy, "Ghost").visible_camera = False
     return "ray visibility", "object 'Ghost' (camera off)"
@@ -146,7 +141,7 @@ def indirect_only(bpy):
 
 FEATURES = (portal, volume_only, volume_and_surface, world_volume, volume_object, hair_curves, hair_particles,
             point_cloud, light_linking, shadow_linking, shadow_catcher, holdout_object, holdout_collection,
-            holdout_shader, motion_blur, depth_of_field, ray_visibility, indirect_only)
+            holdout_shader, motion_blur, ray_visibility, indirect_only)
 
 
 @pytest.mark.parametrize("feature", FEATURES, ids=[f.__name__ for f in FEATURES])

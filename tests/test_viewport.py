@@ -112,6 +112,23 @@ def test_view_camera_of_the_camera_matrices_is_the_scene_camera(cornell, ext):
             assert np.allclose((o1 - o2) @ d2[0], obj.data.clip_start, atol=1e-5)
 
 
+def test_a_view_through_the_camera_takes_its_depth_of_field_and_a_focus_pull_renders_again(cornell, ext):
+    viewport = _module("operators.viewport")
+    extract = _module("operators.extract")
+    scene, depsgraph, _ = cornell()
+    obj = scene.camera
+    obj.data.dof.use_dof, obj.data.dof.aperture_fstop, obj.data.dof.focus_distance = True, 1.4, 3.0
+    depsgraph.update()
+    ours = extract.camera_of(scene, depsgraph)
+    lens = extract.depth_of_field(obj.evaluated_get(depsgraph), np.array(obj.matrix_world, np.float64), depsgraph)
+    window = obj.calc_matrix_camera(depsgraph, x=ours.width, y=ours.height)
+    view = viewport.view_camera(obj.matrix_world.inverted(), window, ours.width, ours.height, scene.vpl_gi, lens)
+    assert (view.aperture, view.focus) == (ours.aperture, ours.focus) and ours.aperture > 0.0
+    pulled = viewport.view_camera(obj.matrix_world.inverted(), window, ours.width, ours.height, scene.vpl_gi,
+                                  dict(lens, focus=2.0))
+    assert viewport._key(pulled) != viewport._key(view)
+
+
 def test_first_image_at_a_quarter_then_full_resolution_within_the_error_bar(cornell, viewport):
     """Issue 24's bars on the Cornell box: the first image after a change is at 1/4 resolution and costs a small
     share of a full pass; the first full-resolution pass has a Diffuse Indirect rMAE <= 0.1 against the Cycles

@@ -7,6 +7,12 @@ fitted extent. Pixel (i, j), i from the left and j from the TOP, covers [i, i+1]
 Render border (Cycles with *Render Region*): ``region`` is the rectangle of pixels that is rendered, on the full
 frame's view plane, so a pixel of the region sees what the same pixel of the whole frame sees.
 
+Depth of field (Cycles ``kernel/camera/camera.h``): a thin lens of radius ``aperture`` (Cycles' aperture size,
+focal length / (2 f-stop), or 1 / (2 f-stop) for an orthographic camera) focused at ``focus`` metres along the view
+axis. A ray leaves from a point of the aperture (a disc, or a regular polygon of ``blades`` corners turned by
+``blade_rotation``, squeezed across by ``aperture_ratio``) toward the point of the plane of focus its pinhole ray
+meets, so what lies on that plane stays sharp.
+
 Pixel filter (Cycles ``scene/film.cpp``): samples are importance-sampled from the filter, each weighing 1.
 Box is always one pixel wide whatever the width (measured), Blackman-Harris spans [-w, w] (Cycles evaluates it at
 twice the width), Gaussian exp(-8 u^2 / w^2) is tabulated over [-1.5w, 1.5w].
@@ -18,7 +24,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from .compiled import kernel
-from .sampling import normalize
+from .sampling import concentric_disk, normalize
 
 FILTER_TABLE_SIZE = 1024
 
@@ -75,6 +81,11 @@ class Camera:
     filter_width: float = 1.5
     # (x, y, width, height) of the pixels rendered, x from the left and y from the top of the frame; None: all
     region: tuple[int, int, int, int] | None = None
+    aperture: float = 0.0  # radius of the lens in metres (0: a pinhole, everything in focus)
+    focus: float = 10.0  # distance of the plane of focus along the view axis
+    blades: int = 0  # corners of the aperture (fewer than 3: a disc)
+    blade_rotation: float = 0.0  # radians
+    aperture_ratio: float = 1.0  # anamorphic squeeze: the aperture's height over its width
 
     def __post_init__(self):
         m = np.asarray(self.to_world, np.float64).reshape(4, 4).copy()
@@ -88,6 +99,11 @@ class Camera:
                 raise ValueError(f"the region {w}x{h} at ({x}, {y}) is not a rectangle of pixels within the "
                                  f"{self.width}x{self.height} frame")
             self.region = (x, y, w, h)
+        lens = (self.aperture, self.focus, self.blade_rotation, self.aperture_ratio)
+        if not np.isfinite(lens).all() or self.aperture < 0.0 or self.aperture_ratio <= 0.0:
+            raise ValueError(f"the camera's depth of field needs a finite aperture >= 0 and ratio > 0 (got aperture "
+                             f"{self.aperture}, focus {self.focus}, ratio {self.aperture_ratio})")
+        self.focus = max(float(self.focus), 1e-5)  # as Cycles clamps it
 
     @property
     def pixel_region(self) -> tuple[int, int, int, int]:
@@ -125,8 +141,11 @@ class Camera:
         low = table[step]
         return low + (x - step) * (table[step + 1] - low)
 
-    def rays(self, px: np.ndarray, py: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """World-space rays through continuous image positions (px from the left, py from the top).
+    def rays(self, px: np.ndarray, py: np.ndarray, lens: tuple[np.ndarray, np.ndarray] | None = None
+             ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """World-space rays through continuous image positions (px from the left, py from the top); ``lens``: two
+        arrays of uniform numbers, the point of the aperture each ray leaves from (ignored for a pinhole; without
+        them every ray leaves from the lens's centre, in focus everywhere).
 
         Returns origins, unit directions and the near distance (clip start measured along the optical axis).
         """
@@ -136,15 +155,45 @@ class Camera:
         rot, pos = self.to_world[:3, :3], self.to_world[:3, 3]
         if self.orthographic:
             local_o = np.stack([sx, sy, np.zeros_like(sx)], axis=-1)
-            origins = local_o @ rot.T + pos
-            dirs = np.broadcast_to(-rot[:, 2], origins.shape).copy()
+            dirs = np.broadcast_to(-rot[:, 2], local_o.shape).copy()
             near = np.full(len(px), self.clip_start)
         else:
             dirs, length = np.empty((len(sx), 3)), np.empty(len(sx))
             _perspective(np.asarray(sx, np.float64), np.asarray(sy, np.float64), rot, dirs, length)
-            origins = np.broadcast_to(pos, dirs.shape).copy()
+            local_o = np.zeros((len(sx), 3))
             near = self.clip_start * length
-        return origins, dirs, near
+        if self.aperture > 0.0 and lens is not None:
+            # the lens point, and the point of the plane of focus (local z = -focus) the pinhole ray meets
+            lx, ly = self.aperture_points(*lens)
+            focal = np.stack([sx, sy, -np.ones_like(sx)], axis=-1) * self.focus
+            if self.orthographic:
+                focal[:, :2] = 0.0
+            local_d = normalize(focal - np.stack([lx, ly, np.zeros_like(lx)], axis=-1))
+            local_o[:, 0] += lx
+            local_o[:, 1] += ly
+            dirs = local_d @ rot.T
+            if self.orthographic:  # the clip plane stays a plane
+                near = self.clip_start / -local_d[:, 2]
+        return local_o @ rot.T + pos, dirs, near
+
+    def aperture_points(self, u1: np.ndarray, u2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(x, y) in metres on the lens, uniform over the aperture for uniform numbers (u1, u2): a disc (Shirley and
+        Chiu's map), or with ``blades`` >= 3 the regular polygon of that many corners on the disc's rim, the first
+        at ``blade_rotation`` + pi / blades, drawn as one of its triangles about the centre and a uniform point in
+        it; x divided by ``aperture_ratio`` (Cycles' anamorphic bokeh)."""
+        u1, u2 = np.asarray(u1, np.float64), np.asarray(u2, np.float64)
+        if self.blades < 3:
+            x, y = concentric_disk(u1, u2)
+        else:
+            n = self.blades
+            corner = np.minimum(np.floor(u1 * n), n - 1)
+            a = np.sqrt(u1 * n - corner)  # uniform in the triangle (centre, corner k, corner k + 1)
+            b = u2 * a
+            half = np.pi / n
+            px, py = a * np.cos(half), (2.0 * b - a) * np.sin(half)
+            turn = self.blade_rotation + corner * 2.0 * half
+            x, y = np.cos(turn) * px - np.sin(turn) * py, np.sin(turn) * px + np.cos(turn) * py
+        return x * self.aperture / self.aperture_ratio, y * self.aperture
 
 
 @kernel

@@ -189,6 +189,33 @@ def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[
     return (x ^ shift[:, :1]) * scale + jitter[..., 0] * scale, (y ^ shift[:, 1:]) * scale + jitter[..., 1] * scale
 
 
+def stratified_4d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """(x, y, u, v), each (count, per_cell): ``stratified_2d``'s points in four dimensions, the first four of Sobol's
+    sequence (Joe and Kuo's directions, scipy's ``qmc.Sobol``) shifted per cell, so that the pairs (x, y) and (u, v)
+    are each a net and together a 4D net: a pixel's filter positions and lens points (depth of field) are stratified
+    jointly, as by Cycles' tabulated Sobol sampler. Two independent 2D nets at the same sample index, by contrast,
+    repeat one point set under two shifts (a lens point then follows from its filter position). Otherwise the
+    points are independent uniform ones."""
+    if per_cell & (per_cell - 1):
+        return tuple(rng.random((count, per_cell)) for _ in range(4))
+    net = _sobol_net_4d(per_cell)
+    shift = rng.integers(0, 1 << 32, (count, 4), dtype=np.uint64).astype(np.uint32)
+    scale = 1.0 / 4294967296.0
+    jitter = rng.random((4, count, per_cell))  # fills the bits below 32
+    return tuple((net[d] ^ shift[:, d:d + 1]) * scale + jitter[d] * scale for d in range(4))
+
+
+@functools.cache
+def _sobol_net_4d(count: int) -> np.ndarray:
+    """(4, count) the first ``count`` (a power of two) points of the 4D Sobol sequence as 32-bit integers (read
+    only), in scipy's Gray-code order: any leading 2^j of them are the first 2^j points of the sequence."""
+    from scipy.stats import qmc
+    points = qmc.Sobol(d=4, scramble=False, bits=32).random_base2(count.bit_length() - 1)
+    net = np.ascontiguousarray((points * 4294967296.0).astype(np.uint32).T)
+    net.flags.writeable = False
+    return net
+
+
 def pixel_nets(pixel: np.ndarray, per_row: int, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """(u, v), each (R, per_row): 2D numbers for R rows (sample points) of the pixels ``pixel`` (R,). The rows of a
     pixel share one scrambled Sobol net (``stratified_2d``) of the next power of two at or above the most numbers a

@@ -1,7 +1,8 @@
 """The G-buffer: what the camera sees at several filter-distributed samples per pixel.
 
 For a block of pixels it traces ``spp`` primary rays per pixel (stratified sub-pixel positions warped by the pixel
-filter, see ``core.camera``) and keeps the ``Surface`` of the samples that hit, and the directions of those that miss.
+filter and, with depth of field, stratified points of the lens, see ``core.camera``) and keeps the ``Surface`` of
+the samples that hit, and the directions of those that miss.
 Passes are formed by ``splat``: the mean over a pixel's samples, misses counting as zero, exactly like Cycles' film
 with a transparent background; ``background`` is the other share of the pixel, what its missing samples see of the
 world (Cycles' Environment pass). A light the camera sees (``Light.visible``: an area light, a point or spot
@@ -14,17 +15,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..core.sampling import group_sum, stratified_2d
+from ..core.sampling import group_sum, stratified_2d, stratified_4d
 from ..materials.surface import Surface, shade
 
 
-def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None):
-    """What the camera's rays through image positions (px, py) hit between the clip distances, refracted by the
-    glass they pass (``Tracer.intersect_bent``), and the unit direction each has there (or leaves with); given
-    ``lights`` (a list), also (N,3) the radiance of the visible lights each ray meets before its surface
-    (``Light.seen``, along the ray as it leaves the camera). As in Cycles, a light the camera sees adds its light to
-    what is behind it and hides nothing."""
-    origins, dirs, near = cam.rays(px, py)
+def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=None):
+    """What the camera's rays through image positions (px, py) (and the lens's numbers ``lens``, ``Camera.rays``)
+    hit between the clip distances, refracted by the glass they pass (``Tracer.intersect_bent``), and the unit
+    direction each has there (or leaves with); given ``lights`` (a list), also (N,3) the radiance of the visible
+    lights each ray meets before its surface (``Light.seen``, along the ray as it leaves the camera). As in Cycles,
+    a light the camera sees adds its light to what is behind it and hides nothing."""
+    origins, dirs, near = cam.rays(px, py, lens)
     origins = origins + dirs * near[:, None]
     tmax = np.maximum(cam.clip_end - near, 0.0)
     hits, heading = tracer.intersect_bent(origins, dirs, tmax=tmax)
@@ -56,11 +57,15 @@ class GBuffer:
     def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
         cam = scene.camera
         pixels = np.asarray(pixels, np.int64)
-        u, v = stratified_2d(len(pixels), spp, rng)
+        lens = None
+        if cam.aperture > 0.0:  # depth of field: the lens's points stratified with the filter's positions
+            u, v, *lens = (a.ravel() for a in stratified_4d(len(pixels), spp, rng))
+        else:
+            u, v = stratified_2d(len(pixels), spp, rng)
         pix = np.repeat(pixels, spp)
         px = (pix % cam.width) + 0.5 + cam.filter_offsets(u.ravel())
         py = (pix // cam.width) + 0.5 + cam.filter_offsets(v.ravel())
-        dirs, hits, lamp = camera_hits(cam, tracer, px, py, [light for light in scene.lights if light.visible])
+        dirs, hits, lamp = camera_hits(cam, tracer, px, py, [light for light in scene.lights if light.visible], lens)
         sample = np.nonzero(hits.hit)[0]
         on_lamp = np.nonzero((lamp > 0.0).any(axis=1))[0]
         missed = np.nonzero(~hits.hit)[0]
