@@ -141,15 +141,15 @@ def test_a_seed_gives_one_image_however_the_threads_run():
     assert np.array_equal(images[0], images[1]) and not np.array_equal(images[0], images[2])
 
 
-def slab_scene(top: float, bottom: float | None):
-    """A white floor (z = 0) under a glass sheet at z = ``top`` facing up and, given ``bottom``, a second one at
-    z = ``bottom`` facing down: the two faces of a slab, as a solid's outward winding makes them."""
+def slab_scene(top: float, bottom: float | None, roughness: float = 0.0):
+    """A white floor (z = 0) under a glass sheet (of ``roughness``) at z = ``top`` facing up and, given ``bottom``,
+    a second one at z = ``bottom`` facing down: the two faces of a slab, as a solid's outward winding makes them."""
     big = QUAD * [8.0, 8.0, 1.0] - [4.0, 4.0, 0.0]
     faces = [big, big + [0.0, 0.0, top]]
     if bottom is not None:
         faces.append(big[:, ::-1] + [0.0, 0.0, bottom])  # reversed corners: the normal points down
     rows = [{"name": "floor", "base_color": (1, 1, 1)},
-            {"name": "glass", "transmission": 1.0, "ior": 1.5, "base_color": (1, 1, 1)}]
+            {"name": "glass", "transmission": 1.0, "ior": 1.5, "base_color": (1, 1, 1), "roughness": roughness}]
     return Scene.build(np.concatenate(faces), Materials.make(rows), [SUN], CAM,
                        material=[1, 1] + [2, 2] * (len(faces) - 1))
 
@@ -163,29 +163,39 @@ def test_camera_rays_refract_through_glass_as_snell_says_and_leave_a_slab_parall
     # one face: the ray goes on inside the glass at Snell's angle
     tracer = tracer_of(slab_scene(0.7, None))
     hits, heading = tracer.intersect_bent(origins, d)
-    down = np.nonzero(hits.prim < 2)[0]  # the rays that reached the floor (a few stop at the face as a mirror)
+    down = np.nonzero((hits.prim >= 0) & (hits.prim < 2))[0]  # on the floor (a few stop at the face as a mirror)
     assert len(down) > 0.9 * k
     assert np.allclose(heading[down], [np.sin(inside), 0.0, -np.cos(inside)], atol=1e-9)
     # two faces: out again parallel to the camera's ray, shifted toward the normal by the slab's thickness
     tracer = tracer_of(slab_scene(0.7, 0.5))
     hits, heading = tracer.intersect_bent(origins, d)
-    down = np.nonzero(hits.prim < 2)[0]
+    down = np.nonzero((hits.prim >= 0) & (hits.prim < 2))[0]
     assert abs(len(down) / k - (1.0 - 0.0419) ** 2) < 0.02  # Fresnel at 30 degrees and at its refracted angle
     assert np.allclose(heading[down], d[0], atol=1e-9)
     floor = shade(slab_scene(0.7, 0.5), heading, hits, down).position
-    expected = 1.8 * np.tan(theta) + 0.2 * np.tan(inside)
-    assert np.allclose(floor[:, 0], expected, atol=1e-3)  # the offsets off each face: 1e-4 (extent / 65536)
-    assert np.allclose(hits.t[down], 1.8 / np.cos(theta) + 0.2 / np.cos(inside), atol=1e-3)
+    # (but for the 0.2 % that the faces reflect inside twice, three crossings) the offsets off each face: 1e-4
+    once = np.isclose(floor[:, 0], 1.8 * np.tan(theta) + 0.2 * np.tan(inside), atol=1e-3)
+    twice = np.isclose(floor[:, 0], 1.8 * np.tan(theta) + 0.6 * np.tan(inside), atol=1e-3)
+    assert (once | twice).all() and once.mean() > 0.99
+    assert np.allclose(hits.t[down[once]], 1.8 / np.cos(theta) + 0.2 / np.cos(inside), atol=1e-3)
+    # rough glass scatters the rays about Snell's direction
+    tracer = tracer_of(slab_scene(0.7, None, roughness=0.4))
+    hits, heading = tracer.intersect_bent(origins, d)
+    down = np.nonzero(hits.prim >= 0)[0]
+    spread = np.degrees(np.arccos(np.clip(heading[down] @ [np.sin(inside), 0.0, -np.cos(inside)], -1.0, 1.0)))
+    assert len(down) > 0.85 * k and np.median(spread) > 1.0 and np.median(spread) < 15.0
     # the thin sheet's rays (shadow rays, light paths) still go straight through
     straight = tracer.intersect(origins, d)
     assert np.allclose(shade(slab_scene(0.7, 0.5), d, straight, np.nonzero(straight.prim < 2)[0]).position[:, 0],
                        2.0 * np.tan(theta), atol=1e-3)
 
 
-def test_from_inside_glass_past_the_critical_angle_a_ray_stops_as_at_a_mirror():
+def test_from_inside_glass_past_the_critical_angle_a_ray_reflects_and_stays_inside():
     tracer = tracer_of(slab_scene(0.7, None))
     steep = np.radians(50.0)  # above asin(1 / 1.5) = 41.8 degrees
     k = 500
     origins = np.tile([0.0, 0.0, 0.3], (k, 1))  # under the face, inside the glass it bounds
     hits, heading = tracer.intersect_bent(origins, np.tile([np.sin(steep), 0.0, np.cos(steep)], (k, 1)))
-    assert (hits.prim >= 2).all()  # every ray stops at the face
+    assert ((hits.prim >= 0) & (hits.prim < 2)).all()  # every ray turns back down to the floor
+    assert np.allclose(heading, [np.sin(steep), 0.0, -np.cos(steep)])
+    assert np.allclose(hits.t, 0.4 / np.cos(steep) + 0.7 / np.cos(steep), atol=1e-3)

@@ -159,7 +159,7 @@ class Tracer:
             if not len(todo):
                 break
             point = base[todo] + d * (hits.t[todo] - walked[todo])[:, None]
-            through = np.where((np.einsum("ij,ij->i", ng, d) >= 0.0)[:, None], ng, -ng)
+            through = np.where((np.einsum("ij,ij->i", ng, onward) >= 0.0)[:, None], ng, -ng)  # the side it goes to
             start = self.offset_origin(point, through)
             walked[todo] = hits.t[todo] + np.einsum("ij,ij->i", start - point, d)  # where the new segment starts
             base[todo], heading[todo] = start, onward

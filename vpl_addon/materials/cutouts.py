@@ -10,9 +10,9 @@ on through it with probability T = (1 - F(cos theta, IOR)) x the luminance of it
 eq. 22 for F); where it stops, ``surface.shade`` makes the point a white mirror of the glass's roughness, so the light
 it reflects is 1 - T in expectation. Camera rays refract as they go on (``Tracer.intersect_bent``: Snell's law about
 the interpolated normal, F of the interface from the side the ray comes from), so a glass ball shows the room upside
-down as in Cycles; every other ray (shadow rays, light paths, the gather's) takes glass as a thin sheet and goes on
-straight, with F at the IOR on both faces, which is exact for a pane and keeps shadow rays straight segments. The
-tint is grey; rough glass refracts as smooth glass.
+down as in Cycles, and rough glass blurs what lies behind it; every other ray (shadow rays, light paths, the
+gather's) takes glass as a thin sheet and goes on straight, with F at the IOR on both faces, which is exact for a
+pane and keeps shadow rays straight segments. The tint is grey.
 
 ``Tracer`` asks a ``Cutouts`` at every hit on such a triangle, so camera rays, shadow rays, light paths and the
 gather's visibility all see the same holes and panes; it also reports which rays went through glass, whose light
@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 
 from ..core.color import luminance
-from .microfacet import dielectric_fresnel
+from .microfacet import alpha as microfacet_alpha
+from .microfacet import dielectric_fresnel, sample
 from .textures import at_points
 
 
@@ -35,6 +36,7 @@ class Cutouts:
         self._alpha_map = m.mapped("alpha")
         self._glass = m.glass
         self._clear = luminance(np.clip(m.base_color.astype(np.float64), 0.0, 1.0))  # the glass's tint, grey
+        self._roughness = np.clip(np.nan_to_num(m.roughness.astype(np.float64)), 0.0, 1.0)
         holed = (m.alpha < 1.0) | (self._alpha_map >= 0) | self._glass
         self.prims = holed[scene.material]  # (T,) bool
 
@@ -60,30 +62,57 @@ class Cutouts:
         1 - alpha + alpha T (T of glass, 0 otherwise), through a hole straight.
 
         Without ``bend`` a pane is a thin sheet: the ray goes on straight and T takes F at the IOR from either side.
-        With ``bend`` the glass is a solid's surface, as Cycles' Glass BSDF renders it: F is the interface's (the
-        IOR relative to the side the ray comes from, which the triangle's winding tells, as Cycles' backfacing flag
-        does; past the critical angle inside F = 1 and the ray stops there as a mirror) and the ray refracts about
-        the interpolated normal (Snell's law, Walter et al. 2007 eq. 40); smooth whatever its Roughness."""
+        With ``bend`` the glass is a solid's surface, as Cycles' Glass BSDF renders it: the IOR is relative to the
+        side the ray comes from, which the triangle's winding tells (Cycles' backfacing flag), and the ray refracts
+        (Snell's law, Walter et al. 2007 eq. 40) about the interpolated normal or, on rough glass, about a
+        microfacet normal drawn from GGX's visible normals (alpha = Roughness^2, eq. 33's distribution; Heitz
+        2018), with F of that normal. Inside the solid, a ray the face reflects (F, all of it past the critical
+        angle) goes on reflected toward the solid's other faces, as Cycles' path does; outside, it stops there and
+        sees the glass as a mirror (``surface.shade``), as does a ray a microfacet would send back to its own side.
+        A Roughness map is read as its material's value."""
         alpha = self.opacity(prim, u, v)
         mat = self._scene.material[prim]
         glass = np.nonzero(self._glass[mat])[0]
         clear = np.zeros(len(prim))
         onward = np.array(d, np.float64)
+        x = rng.random(len(prim))
         if len(glass):
             ior = self._scene.materials.ior[mat[glass]].astype(np.float64)
             cos = np.einsum("ij,ij->i", ng[glass], d[glass])
             if bend:
+                inside = cos >= 0.0  # leaving the solid through its face
                 normal = self._normals(prim[glass], u[glass], v[glass], ng[glass])
-                ior = np.where(cos < 0.0, ior, 1.0 / ior)
+                ior = np.where(inside, 1.0 / ior, ior)
+                rough = np.nonzero(self._roughness[mat[glass]] > 0.0)[0]
+                if len(rough):
+                    normal[rough] = self._microfacets(normal[rough], d[glass[rough]], mat[glass[rough]], rng)
                 cos = np.einsum("ij,ij->i", normal, d[glass])
-            clear[glass] = (1.0 - dielectric_fresnel(cos, ior)) * self._clear[mat[glass]]
-        x = rng.random(len(prim))
+            fresnel = dielectric_fresnel(cos, ior)
+            clear[glass] = (1.0 - fresnel) * self._clear[mat[glass]]
         hole = x >= alpha
         through = ~hole & (x < alpha * clear)
-        if bend and through.any():
-            rows = np.nonzero(through[glass])[0]
-            onward[glass[rows]] = _refracted(d[glass[rows]], normal[rows], ior[rows], ng[glass[rows]])
-        return hole | through, through, onward
+        if not bend or not len(glass):
+            return hole | through, through, onward
+        rows = np.nonzero(through[glass])[0]
+        bent, ok = _refracted(d[glass[rows]], normal[rows], ior[rows], ng[glass[rows]])
+        onward[glass[rows]] = bent
+        through[glass[rows[~ok]]] = False
+        # inside, the rays the face reflects stay in the solid (toward its other faces) rather than end there
+        back = np.nonzero(inside & ~through[glass] & ~hole[glass]
+                          & (x[glass] < alpha[glass] * (clear[glass] + fresnel)))[0]
+        turned = d[glass[back]] - 2.0 * np.einsum("ij,ij->i", d[glass[back]], normal[back])[:, None] * normal[back]
+        kept = np.sign(np.einsum("ij,ij->i", turned, ng[glass[back]])) < 0.0  # still inside
+        onward[glass[back[kept]]] = turned[kept]
+        on = hole | through
+        on[glass[back[kept]]] = True
+        return on, through, onward
+
+    def _microfacets(self, normal, d, mat, rng) -> np.ndarray:
+        """(N,3) microfacet normals of rough glass for rays ``d`` at points of smooth ``normal`` (either side):
+        GGX's visible normals (``microfacet.sample``) seen from the ray's side."""
+        facing = normal * np.where(np.einsum("ij,ij->i", d, normal) > 0.0, -1.0, 1.0)[:, None]
+        u = rng.random((2, len(d)))
+        return sample(facing, -d, microfacet_alpha(self._roughness[mat]), u[0], u[1])[2]
 
     def _normals(self, prim, u, v, ng) -> np.ndarray:
         """(N,3) the unit interpolated normals at (prim, u, v), on the side of the geometric normals ``ng``."""
@@ -94,18 +123,19 @@ class Cutouts:
         return np.where(length > 1e-12, n / np.maximum(length, 1e-300), ng)
 
 
-def _refracted(d: np.ndarray, n: np.ndarray, eta: np.ndarray, ng: np.ndarray) -> np.ndarray:
-    """Unit directions of rays ``d`` refracted at normals ``n`` (either side) into a medium of relative IOR ``eta``
-    (n_t / n_i), which must not reflect totally: (d + (c - sqrt(eta^2 - 1 + c^2)) n_i) / eta with n_i the normal
-    facing the ray and c = -d . n_i (Walter et al. 2007 eq. 40 written for the transmitted direction). A direction
-    that the interpolated normal would send back across the triangle (``ng``) stays straight."""
+def _refracted(d: np.ndarray, n: np.ndarray, eta: np.ndarray, ng: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(unit directions, (N,) bool whether each goes on across the surface) of rays ``d`` refracted at normals ``n``
+    (either side) into a medium of relative IOR ``eta`` (n_t / n_i), which must not reflect totally:
+    (d + (c - sqrt(eta^2 - 1 + c^2)) n_i) / eta with n_i the normal facing the ray and c = -d . n_i (Walter et al.
+    2007 eq. 40 written for the transmitted direction). A direction that a bent normal (interpolated, or a rough
+    microfacet's) would send back to the ray's side of the triangle (``ng``) does not go on."""
     facing = n * np.where(np.einsum("ij,ij->i", d, n) > 0.0, -1.0, 1.0)[:, None]
     c = -np.einsum("ij,ij->i", d, facing)
     g = np.sqrt(np.maximum(eta * eta - 1.0 + c * c, 0.0))
     t = d + (c - g)[:, None] * facing
     t /= np.maximum(np.linalg.norm(t, axis=1, keepdims=True), 1e-300)
-    same_side = np.sign(np.einsum("ij,ij->i", t, ng)) == np.sign(np.einsum("ij,ij->i", d, ng))
-    return np.where(same_side[:, None], t, d)
+    ok = np.sign(np.einsum("ij,ij->i", t, ng)) == np.sign(np.einsum("ij,ij->i", d, ng))
+    return t, ok
 
 
 def cutouts(scene) -> Cutouts | None:
