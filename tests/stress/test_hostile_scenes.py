@@ -1,6 +1,8 @@
 """Hostile scenes built in code, rendered by every method: the output is finite and non-negative, or the run
 stops with a message naming the problem (issue 8). The counts of scenes, renders and bad values are printed at the
 end of the run (tests/conftest.py)."""
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -126,6 +128,9 @@ def cases():
     yield "glass block of IOR 1e6 around the light", with_triangles(
         room(lights=[PointLight("boxed", [0.5, 0.5, 0.3], [100.0] * 3)]), solid_block, material=2, materials=(
             Materials.make([{"name": "w"}, {"name": "dense glass", "transmission": 1.0, "ior": 1e6}]))), {}
+    yield "rough glass block turned inside out, IOR below 1, in view", with_triangles(
+        base, box([0.2, 0.2, 0.3], [0.8, 0.8, 1.2], True), material=2, materials=Materials.make(
+            [{"name": "w"}, {"name": "odd glass", "transmission": 1.0, "ior": 0.5, "roughness": 1.0}])), {}
     # lights
     yield "no light at all", room(lights=[]), {}
     yield "only world light (open box)", Scene.build(open_box, WHITE, [], outside, material=np.ones(10, int),
@@ -188,6 +193,10 @@ def cases():
     yield "64x1 image", room(camera=camera(res=(64, 1))), {}
     yield "fisheye-wide lens (1 mm)", room(camera=camera(lens=1.0)), {}
     yield "orthographic, 1e-6 m view", room(camera=camera(orthographic=True, ortho_scale=1e-6)), {}
+    yield "lens 10 m wide focused at 0, three blades, squeezed 100 times", room(camera=replace(
+        camera(), aperture=10.0, focus=0.0, blades=3, aperture_ratio=0.01)), {}
+    yield "orthographic lens focused a kilometre away", room(camera=replace(
+        camera(orthographic=True), aperture=0.3, focus=1e3, blades=7, blade_rotation=-40.0)), {}
     # settings
     yield "one VPL, interleave tile larger than the image", base, dict(placement=budget(1),
                                                                         gather=GatherSettings(interleave=32))
