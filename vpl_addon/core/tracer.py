@@ -138,35 +138,45 @@ class Tracer:
 
     def _layers(self, origins, dirs, tmax, bend: bool) -> tuple[Hits, np.ndarray, np.ndarray]:
         """Closest hits through the holes and panes of ``cutouts``, which rays went through glass, and the
-        directions the rays end with (``dirs`` itself unless ``bend``)."""
+        directions the rays end with (``dirs`` itself unless ``bend``). Only the rays that meet a cut-out triangle
+        carry the state of their last segment (its start, direction and the path's length there)."""
         hits = self._closest(origins, dirs, tmax)
         crossed = np.zeros(len(origins), bool)
         if self.cutouts is None:
             return hits, crossed, dirs
-        tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         todo = np.nonzero(hits.hit)[0]
+        todo = todo[self.cutouts.prims[hits.prim[todo]]]
+        if not len(todo):
+            return hits, crossed, dirs
+        tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         rng = self._stream(origins, dirs)
-        base, heading = np.array(origins, np.float64), np.array(dirs, np.float64)  # each ray's last segment
-        walked = np.zeros(len(origins))  # the path's length where that segment starts
-        for _ in range(CUTOUT_LAYERS):
-            todo = todo[self.cutouts.prims[hits.prim[todo]]]
-            if not len(todo):
-                break
-            d, ng = heading[todo], self._face_normals()[hits.prim[todo]]
+        heading = np.array(dirs, np.float64) if bend else dirs
+        base, d = np.asarray(origins[todo], np.float64), np.asarray(dirs[todo], np.float64)  # the last segments
+        walked = np.zeros(len(todo))  # the path's length where each starts
+        for layer in range(CUTOUT_LAYERS):
+            if layer:
+                keep = self.cutouts.prims[hits.prim[todo]]
+                todo, base, d, walked = todo[keep], base[keep], d[keep], walked[keep]
+                if not len(todo):
+                    break
+            ng = self._face_normals()[hits.prim[todo]]
             on, glass, onward = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], d, ng, rng, bend)
             crossed[todo[glass]] = True
-            todo, d, ng, onward = todo[on], d[on], ng[on], onward[on]
+            todo, base, d, walked, ng, onward = todo[on], base[on], d[on], walked[on], ng[on], onward[on]
             if not len(todo):
                 break
-            point = base[todo] + d * (hits.t[todo] - walked[todo])[:, None]
+            point = base + d * (hits.t[todo] - walked)[:, None]
             through = np.where((np.einsum("ij,ij->i", ng, onward) >= 0.0)[:, None], ng, -ng)  # the side it goes to
-            start = self.offset_origin(point, through)
-            walked[todo] = hits.t[todo] + np.einsum("ij,ij->i", start - point, d)  # where the new segment starts
-            base[todo], heading[todo] = start, onward
-            beyond = self._closest(start, onward, tmax[todo] - walked[todo])
+            base = self.offset_origin(point, through)
+            walked = hits.t[todo] + np.einsum("ij,ij->i", base - point, d)  # where the new segment starts
+            d = onward
+            if bend:
+                heading[todo] = onward
+            beyond = self._closest(base, d, tmax[todo] - walked)
             hits.prim[todo], hits.u[todo], hits.v[todo] = beyond.prim, beyond.u, beyond.v
-            hits.t[todo] = walked[todo] + beyond.t  # inf for rays that now miss
-            todo = todo[beyond.hit]
+            hits.t[todo] = walked + beyond.t  # inf for rays that now miss
+            keep = beyond.hit
+            todo, base, d, walked = todo[keep], base[keep], d[keep], walked[keep]
         return hits, crossed, heading
 
     def _stream(self, origins, dirs) -> np.random.Generator:
