@@ -110,9 +110,8 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
         read: extraction names it)."""
         region, scene, lens = context.region, depsgraph.scene, None
         if context.region_data.view_perspective == "CAMERA" and scene.camera is not None:
-            camera = scene.camera.evaluated_get(depsgraph)
             try:
-                lens = depth_of_field(camera, np.array(camera.matrix_world, np.float64), depsgraph)
+                lens = depth_of_field(scene.camera.evaluated_get(depsgraph), depsgraph)
             except ExtractionError:
                 lens = None
         return view_camera(context.region_data.view_matrix, context.region_data.window_matrix, region.width,

@@ -329,10 +329,10 @@ def camera_of(scene, depsgraph=None) -> Camera:
     return Camera(matrix, width, height, window, orthographic=cam.type == "ORTHO",
                   clip_start=cam.clip_start, clip_end=cam.clip_end, filter_type=film.pixel_filter_type,
                   filter_width=film.filter_width, region=render_border(r, width, height),
-                  **depth_of_field(cam_obj, matrix, depsgraph))
+                  **depth_of_field(cam_obj, depsgraph))
 
 
-def depth_of_field(cam_obj, matrix: np.ndarray, depsgraph=None) -> dict:
+def depth_of_field(cam_obj, depsgraph=None) -> dict:
     """``Camera``'s lens settings from the camera's Depth of Field panel, as Cycles reads them (``blender/camera.cpp``):
     an aperture of radius focal length / (2 f-stop) (1 / (2 f-stop) for an orthographic camera) and the focus
     distance, or with a Focus Object (and bone) the distance of its origin along the camera's view axis; nothing
@@ -351,6 +351,7 @@ def depth_of_field(cam_obj, matrix: np.ndarray, depsgraph=None) -> dict:
         bone = target.pose.bones.get(dof.focus_subtarget) if target.pose and dof.focus_subtarget else None
         if bone is not None:
             at = at @ _matrix(bone.matrix)
+        matrix = _matrix(cam_obj.matrix_world)
         view = matrix[:3, 2] / max(np.linalg.norm(matrix[:3, 2]), 1e-300)
         focus = abs(float(np.dot(view, matrix[:3, 3] - at[:3, 3])))
     lens = {"aperture": (1.0 if cam.type == "ORTHO" else cam.lens * 1e-3) / (2.0 * fstop), "focus": focus,

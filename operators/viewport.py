@@ -59,8 +59,7 @@ def nonfinite_transforms(depsgraph) -> list[str]:
 def _key(camera: Camera) -> bytes:
     """What of a camera changes the picture, as bytes to compare."""
     return np.concatenate([camera.to_world.ravel(), camera.window, [camera.width, camera.height,
-                           camera.orthographic, camera.clip_start, camera.clip_end, camera.aperture, camera.focus,
-                           camera.blades, camera.blade_rotation, camera.aperture_ratio]]).tobytes()
+                           camera.orthographic, camera.clip_start, camera.clip_end, *camera.optics]]).tobytes()
 
 
 class Viewport:

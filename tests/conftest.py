@@ -125,6 +125,21 @@ def direct_against_cycles(label, blend, tmp_path, reference=None) -> tuple[dict,
     return e_ours, e_cycles, stderr
 
 
+def combined_against_cycles(blend, foil, tmp_path) -> tuple[dict, dict, dict]:
+    """Combined of the engine (64 spp, no indirect) on ``blend`` and on ``foil`` (the scene without the feature
+    under test, which must then score worse), and of Cycles at 64 spp on ``blend``, each against Cycles at 1024 spp
+    on ``blend``: (our errors, the foil's, Cycles'). The engine's renders must give no warning."""
+    ours, foiled, cycles, reference = (tmp_path / f"{n}.exr" for n in ("ours", "foil", "cycles64", "reference"))
+    for path, scene in ((ours, blend), (foiled, foil)):
+        code, _, stderr = run_cli("render", scene, "-o", path, "--samples", "64", "--method", "none")
+        assert code == 0 and "warning" not in stderr.lower(), stderr
+    for path, samples in ((cycles, 64), (reference, 1024)):
+        code, _, stderr = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir",
+                                  tmp_path / "cache")
+        assert code == 0, stderr
+    return tuple(pass_errors(p, reference, "Combined") for p in (ours, foiled, cycles))
+
+
 def assert_direct_as_cycles(e_ours, e_cycles, stderr):
     """The judgement of ``direct_against_cycles``' figures for a scene the engine reads without a warning: Diffuse
     Direct mean within 2 % of the reference, rMAE within 1.5x Cycles' at equal samples (+ 0.01 for the edges)."""

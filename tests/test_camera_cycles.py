@@ -6,7 +6,7 @@ stays sharp. The focus object decides the focus (its distance along the view axi
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world, pass_errors, run_cli, shader_material
+from conftest import add_mesh, camera_and_black_world, combined_against_cycles, shader_material
 
 pytestmark = pytest.mark.blender
 
@@ -44,14 +44,7 @@ def test_depth_of_field_blurs_and_keeps_in_focus_what_cycles_does(ext, tmp_path)
     blend = lens_blend(tmp_path)
     camera = camera_of(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
     assert abs(camera.focus - 2.0) < 1e-6 and abs(camera.aperture - 0.05 / 0.5) < 1e-9 and camera.blades == 5
-    ours, pinhole, cycles, reference = (tmp_path / f"{n}.exr" for n in ("ours", "pinhole", "cycles", "reference"))
-    for path, scene in ((ours, blend), (pinhole, lens_blend(tmp_path, dof=False))):
-        code, _, stderr = run_cli("render", scene, "-o", path, "--samples", "64", "--method", "none")
-        assert code == 0 and "warning" not in stderr.lower(), stderr
-    for path, samples in ((cycles, 64), (reference, 1024)):
-        code, _, stderr = run_cli("reference", blend, "-o", path, "--samples", samples, "--cache-dir", tmp_path / "c")
-        assert code == 0, stderr
-    e_ours, e_pinhole, e_cycles = (pass_errors(p, reference, "Combined") for p in (ours, pinhole, cycles))
+    e_ours, e_pinhole, e_cycles = combined_against_cycles(blend, lens_blend(tmp_path, dof=False), tmp_path)
     print(f"depth of field: rMAE ours {e_ours['rmae']:.4f}, pinhole {e_pinhole['rmae']:.4f}, Cycles 64 spp "
           f"{e_cycles['rmae']:.4f}; mean ratio {e_ours['mean_ratio']:.4f}")
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.01 and abs(e_ours["mean_ratio"] - 1.0) < 0.02

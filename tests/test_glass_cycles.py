@@ -7,7 +7,8 @@ turned over, as Cycles renders it (the camera's rays refract)."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh, add_sun, camera_and_black_world, pass_errors, run_cli, shader_material
+from conftest import (add_mesh, add_sun, camera_and_black_world, combined_against_cycles, pass_errors, run_cli,
+                      shader_material)
 
 pytestmark = pytest.mark.blender
 
@@ -137,15 +138,8 @@ def frosted_blend(tmp_path, roughness: float):
 
 
 def test_rough_glass_blurs_what_lies_behind_it_as_cycles_does(ext, tmp_path):
-    frosted, clear = frosted_blend(tmp_path, 0.4), frosted_blend(tmp_path, 0.0)
-    ours, smooth, cycles, reference = (tmp_path / f"{n}.exr" for n in ("ours", "smooth", "cycles", "reference"))
-    for path, blend in ((ours, frosted), (smooth, clear)):
-        code, _, stderr = run_cli("render", blend, "-o", path, "--samples", "64", "--method", "none")
-        assert code == 0 and "warning" not in stderr.lower(), stderr
-    for path, samples in ((cycles, 64), (reference, 1024)):
-        code, _, stderr = run_cli("reference", frosted, "-o", path, "--samples", samples, "--cache-dir", tmp_path / "c")
-        assert code == 0, stderr
-    e_ours, e_smooth, e_cycles = (pass_errors(p, reference, "Combined") for p in (ours, smooth, cycles))
+    e_ours, e_smooth, e_cycles = combined_against_cycles(frosted_blend(tmp_path, 0.4), frosted_blend(tmp_path, 0.0),
+                                                         tmp_path)
     print(f"frosted glass: rMAE ours {e_ours['rmae']:.4f}, as smooth glass {e_smooth['rmae']:.4f}, Cycles 64 spp "
           f"{e_cycles['rmae']:.4f}; mean ratio {e_ours['mean_ratio']:.4f}")
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.01 and abs(e_ours["mean_ratio"] - 1.0) < 0.01

@@ -120,7 +120,7 @@ def test_a_view_through_the_camera_takes_its_depth_of_field_and_a_focus_pull_ren
     obj.data.dof.use_dof, obj.data.dof.aperture_fstop, obj.data.dof.focus_distance = True, 1.4, 3.0
     depsgraph.update()
     ours = extract.camera_of(scene, depsgraph)
-    lens = extract.depth_of_field(obj.evaluated_get(depsgraph), np.array(obj.matrix_world, np.float64), depsgraph)
+    lens = extract.depth_of_field(obj.evaluated_get(depsgraph), depsgraph)
     window = obj.calc_matrix_camera(depsgraph, x=ours.width, y=ours.height)
     view = viewport.view_camera(obj.matrix_world.inverted(), window, ours.width, ours.height, scene.vpl_gi, lens)
     assert (view.aperture, view.focus) == (ours.aperture, ours.focus) and ours.aperture > 0.0

@@ -99,11 +99,16 @@ class Camera:
                 raise ValueError(f"the region {w}x{h} at ({x}, {y}) is not a rectangle of pixels within the "
                                  f"{self.width}x{self.height} frame")
             self.region = (x, y, w, h)
-        lens = (self.aperture, self.focus, self.blade_rotation, self.aperture_ratio)
-        if not np.isfinite(lens).all() or self.aperture < 0.0 or self.aperture_ratio <= 0.0:
+        if not np.isfinite(self.optics).all() or self.aperture < 0.0 or self.aperture_ratio <= 0.0:
             raise ValueError(f"the camera's depth of field needs a finite aperture >= 0 and ratio > 0 (got aperture "
                              f"{self.aperture}, focus {self.focus}, ratio {self.aperture_ratio})")
         self.focus = max(float(self.focus), 1e-5)  # as Cycles clamps it
+
+    @property
+    def optics(self) -> tuple[float, ...]:
+        """The lens's settings (aperture, focus, blades, blade rotation, ratio): what of depth of field changes
+        the picture."""
+        return (self.aperture, self.focus, self.blades, self.blade_rotation, self.aperture_ratio)
 
     @property
     def pixel_region(self) -> tuple[int, int, int, int]:

@@ -182,11 +182,7 @@ def stratified_2d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[
     """
     if per_cell & (per_cell - 1):
         return rng.random((count, per_cell)), rng.random((count, per_cell))
-    x, y = _sobol_net(per_cell)
-    shift = rng.integers(0, 1 << 32, (count, 2), dtype=np.uint64).astype(np.uint32)
-    scale = 1.0 / 4294967296.0
-    jitter = rng.random((count, per_cell, 2))  # fills the bits below 32
-    return (x ^ shift[:, :1]) * scale + jitter[..., 0] * scale, (y ^ shift[:, 1:]) * scale + jitter[..., 1] * scale
+    return _shifted(_sobol_net(per_cell), count, per_cell, rng)
 
 
 def stratified_4d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
@@ -198,11 +194,17 @@ def stratified_4d(count: int, per_cell: int, rng: np.random.Generator) -> tuple[
     points are independent uniform ones."""
     if per_cell & (per_cell - 1):
         return tuple(rng.random((count, per_cell)) for _ in range(4))
-    net = _sobol_net_4d(per_cell)
-    shift = rng.integers(0, 1 << 32, (count, 4), dtype=np.uint64).astype(np.uint32)
+    return _shifted(_sobol_net_4d(per_cell), count, per_cell, rng)
+
+
+def _shifted(net, count: int, per_cell: int, rng: np.random.Generator) -> tuple[np.ndarray, ...]:
+    """Each dimension of ``net`` (its 32-bit integer points) as (count, per_cell) numbers in [0, 1): the net
+    XOR-shifted by a random 32-bit number per cell and dimension (a random digital shift keeps it a net), the bits
+    below 32 filled at random."""
+    shift = rng.integers(0, 1 << 32, (count, len(net)), dtype=np.uint64).astype(np.uint32)
     scale = 1.0 / 4294967296.0
-    jitter = rng.random((4, count, per_cell))  # fills the bits below 32
-    return tuple((net[d] ^ shift[:, d:d + 1]) * scale + jitter[d] * scale for d in range(4))
+    jitter = rng.random((count, per_cell, len(net)))  # fills the bits below 32
+    return tuple((net[d] ^ shift[:, d:d + 1]) * scale + jitter[..., d] * scale for d in range(len(net)))
 
 
 @functools.cache

@@ -110,9 +110,8 @@ class Cutouts:
     def _microfacets(self, normal, d, mat, rng) -> np.ndarray:
         """(N,3) microfacet normals of rough glass for rays ``d`` at points of smooth ``normal`` (either side):
         GGX's visible normals (``microfacet.sample``) seen from the ray's side."""
-        facing = normal * np.where(np.einsum("ij,ij->i", d, normal) > 0.0, -1.0, 1.0)[:, None]
         u = rng.random((2, len(d)))
-        return sample(facing, -d, microfacet_alpha(self._roughness[mat]), u[0], u[1])[2]
+        return sample(_facing(normal, d), -d, microfacet_alpha(self._roughness[mat]), u[0], u[1])[2]
 
     def _normals(self, prim, u, v, ng) -> np.ndarray:
         """(N,3) the unit interpolated normals at (prim, u, v), on the side of the geometric normals ``ng``."""
@@ -123,13 +122,18 @@ class Cutouts:
         return np.where(length > 1e-12, n / np.maximum(length, 1e-300), ng)
 
 
+def _facing(n: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """The normals ``n`` turned toward the side the rays ``d`` come from."""
+    return n * np.where(np.einsum("ij,ij->i", d, n) > 0.0, -1.0, 1.0)[:, None]
+
+
 def _refracted(d: np.ndarray, n: np.ndarray, eta: np.ndarray, ng: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(unit directions, (N,) bool whether each goes on across the surface) of rays ``d`` refracted at normals ``n``
     (either side) into a medium of relative IOR ``eta`` (n_t / n_i), which must not reflect totally:
     (d + (c - sqrt(eta^2 - 1 + c^2)) n_i) / eta with n_i the normal facing the ray and c = -d . n_i (Walter et al.
     2007 eq. 40 written for the transmitted direction). A direction that a bent normal (interpolated, or a rough
     microfacet's) would send back to the ray's side of the triangle (``ng``) does not go on."""
-    facing = n * np.where(np.einsum("ij,ij->i", d, n) > 0.0, -1.0, 1.0)[:, None]
+    facing = _facing(n, d)
     c = -np.einsum("ij,ij->i", d, facing)
     g = np.sqrt(np.maximum(eta * eta - 1.0 + c * c, 0.0))
     t = d + (c - g)[:, None] * facing

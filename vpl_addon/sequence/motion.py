@@ -72,8 +72,7 @@ class Snapshot:
                           *(() if scene.environment is None else (scene.environment.image, scene.environment.rotation)))
         cam = scene.camera
         camera = _digest(np.asarray(cam.to_world, np.float64), np.asarray(cam.window, np.float64),
-                         np.array([cam.width, cam.height, float(cam.orthographic), cam.aperture, cam.focus, cam.blades,
-                                   cam.blade_rotation, cam.aperture_ratio]))
+                         np.array([cam.width, cam.height, float(cam.orthographic), *cam.optics]))
         return Snapshot(objects, bounds, [light_digest(l) for l in scene.lights], camera, shading,
                         _digest(scene.triangles))
 
