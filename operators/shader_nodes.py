@@ -17,10 +17,14 @@ colours and scale stands where an image may: it becomes a 2x2 image read Closest
 reroutes and into and out of node groups. Anything else keeps the input's value, with one warning naming the
 material, the input and the node.
 
-Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass (thin glass) and Emission shaders; a Mix Shader
+Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass and Emission shaders; a Mix Shader
 with a Transparent BSDF is an alpha cut-out of the other shader, an Add Shader of an Emission shader makes the other
 glow; other mixes and sums render their heavier (first) shader, with a warning. A Holdout shader renders black (its
-warning comes from ``unsupported``).
+warning comes from ``unsupported``). Glass keeps as its Base Color the colour light keeps crossing one of its faces
+(``materials.cutouts``): the Glass BSDF's Color, the square root of the Principled BSDF's Base Color (Cycles tints
+each crossing of Principled glass so, and a closed solid by its Base Color; measured in Blender 5.0: a slab of Base
+Color (0.25, 0.5, 1) passes (0.231, 0.461, 0.925) = (1 - F)^2 x Base Color, a Glass BSDF slab of that Color its
+square, (0.058, 0.229, 0.920)).
 """
 from __future__ import annotations
 
@@ -527,6 +531,8 @@ class MaterialTable:
         if 0.0 < row["transmission"] < 1.0:
             self.warnings.append(f"material {material.name!r}: Transmission Weight {row['transmission']:g} is read "
                                  f"as {'glass' if row['transmission'] >= 0.5 else 'opaque'}")
+        if row["transmission"] >= 0.5 and row["metallic"] < 0.5:  # glass: the colour of one crossing
+            row["base_color"] = tuple(float(np.sqrt(np.clip(c, 0.0, 1.0))) for c in row["base_color"])
         strength = _value(inputs["Emission Strength"])
         row["emission"] = tuple(c * strength for c in _value(inputs["Emission Color"])[:3])
         self._linked(material, row, node, {"Base Color": "base_color", "Roughness": "roughness",

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.color import luminance
 from vpl_addon.core.scene import Materials, Scene, TextureMap
 from vpl_addon.core.tracer import CUTOUT_LAYERS, Tracer
 from vpl_addon.lights import LightSet
@@ -199,3 +200,64 @@ def test_from_inside_glass_past_the_critical_angle_a_ray_reflects_and_stays_insi
     assert ((hits.prim >= 0) & (hits.prim < 2)).all()  # every ray turns back down to the floor
     assert np.allclose(heading, [np.sin(steep), 0.0, -np.cos(steep)])
     assert np.allclose(hits.t, 0.4 / np.cos(steep) + 0.7 / np.cos(steep), atol=1e-3)
+
+
+def test_coloured_glass_colours_the_light_of_every_kind_of_ray_that_crosses_it():
+    """A pane of tint (0.2, 0.5, 1) (the colour one crossing leaves, ``Materials.base_color`` of glass) over the
+    floor: the sun's light under it, the camera's rays through two such panes, the photons that land under it and
+    the gather's light from a VPL above it all come out in the pane's colour, 1 - F of the light crossing it."""
+    from vpl_addon.gather.summing import sum_pairs
+    from vpl_addon.gather.virtual_lights import STANDARD, VirtualLights
+    from vpl_addon.lights.direct import direct_light
+    from vpl_addon.materials.microfacet import dielectric_fresnel
+    from vpl_addon.paths.light_paths import trace_paths
+    tint = np.array([0.2, 0.5, 1.0])
+    clear = 1.0 - dielectric_fresnel(np.array([1.0]), np.array([1.5]))[0]
+    glass = {"transmission": 1.0, "ior": 1.5, "base_color": tuple(tint)}
+    scene = fence_scene(glass)
+    tracer = tracer_of(scene)
+    xy = np.full((400, 2), 0.5)
+    down = np.tile([0.0, 0.0, -1.0], (len(xy), 1))
+    floor = shade(scene, down, tracer.intersect(np.column_stack([xy, np.full(len(xy), 0.25)]), down),
+                  np.arange(len(xy)))
+    through = np.zeros((len(xy), 3))
+    direct_light(floor, LightSet(scene), tracer, 16, np.random.default_rng(4), through=through)
+    assert np.allclose(through.mean(axis=0) / (clear * tint * 2.0 / np.pi), 1.0, atol=0.01)
+    # the camera's rays carry the colour of both panes; a ray not asked for colour passes by the tint's luminance
+    k = 20000
+    stack = fence_scene(glass, layers=2)
+    origins, d = np.tile([0.5, 0.5, 2.0], (k, 1)), np.tile([0.0, 0.0, -1.0], (k, 1))
+    hits, _ = tracer_of(stack).intersect_bent(origins, d)
+    on_floor = hits.prim < 2
+    assert abs(on_floor.mean() - clear ** 2) < 0.01 and np.allclose(hits.tint[on_floor], tint ** 2)
+    assert np.allclose(hits.tint[hits.prim >= 4], 1.0)  # stopped at the first pane (z = 0.6): not through it
+    assert np.allclose(hits.tint[(hits.prim >= 2) & (hits.prim < 4)], tint)  # at the second, through the first
+    grey = tracer_of(stack).intersect(origins, d)
+    assert grey.tint is None and abs((grey.prim < 2).mean() - (clear * luminance(tint)) ** 2) < 0.01
+    # photons from the sun: the lights they leave on the floor are the pane's colour
+    vpls = trace_paths(scene, tracer, LightSet(scene), 4000, np.random.default_rng(5), 1)
+    under = np.nonzero((np.abs(vpls.position[:, 2]) < 1e-6) & (np.abs(vpls.position[:, :2] - 0.5).max(axis=1) < 0.5))
+    assert len(under[0]) > 100
+    assert np.allclose(vpls.intensity[under] / vpls.intensity[under][:, 2:], tint)
+    # the gather: a VPL above the pane lights the floor below through it
+    light = VirtualLights(np.array([[0.5, 0.5, 1.0]]), np.array([[0.0, 0.0, -1.0]]), np.ones((1, 3)),
+                          np.ones(1, np.int32), np.full(1, STANDARD, np.int8), np.zeros(1, np.int64))
+    pairs = sum_pairs(floor, np.arange(len(xy)), light, np.zeros(len(xy), np.int64), tracer, 0.0,
+                      np.zeros(len(xy), np.int64), 1)[0]
+    assert np.allclose(pairs / (len(xy) * clear * tint / np.pi), 1.0, atol=0.05)
+
+
+def test_the_g_buffer_shades_and_looks_up_the_world_along_the_refracted_rays():
+    """``camera_hits`` with the lights the camera sees (as ``GBuffer.build`` calls it) hands on the directions the
+    rays have past the glass: a surface behind glass is shaded, and the world seen through it looked up, along them
+    (Snell's law at a face of z = 0.7: the tangential part over the IOR)."""
+    from vpl_addon.paths.gbuffer import camera_hits
+    above = np.eye(4)
+    above[:3, 3] = (0.0, 0.0, 2.0)
+    cam = Camera(above, 8, 8, view_window(8, 8, orthographic=False))
+    px, py = np.repeat(np.array([0.5, 2.5, 7.5]), 200), np.repeat(np.array([0.5, 6.0, 4.0]), 200)
+    heading, hits, _ = camera_hits(cam, tracer_of(slab_scene(0.7, None)), px, py, lights=[])
+    _, d, _ = cam.rays(px, py)
+    floor = np.nonzero(hits.prim < 2)[0]
+    assert len(floor) > 0.9 * len(px) and np.abs(d[floor, :2]).max() > 0.2
+    assert np.allclose(heading[floor, :2], d[floor, :2] / 1.5, atol=1e-9)

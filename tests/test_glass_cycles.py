@@ -3,7 +3,8 @@ engine's ``Diffuse Indirect`` against Cycles on the same .blend. Cycles finds th
 BSDF samples that pass the pane (its shadow rays stop at glass), so it counts the patch as indirect light, and so
 does the engine (``materials.cutouts``: shadow rays through glass report it). And a smooth glass ball (Principled BSDF,
 Transmission Weight 1) in front of a wall glowing red on its left and green on its right: a ball lens shows the wall
-turned over, as Cycles renders it (the camera's rays refract)."""
+turned over, as Cycles renders it (the camera's rays refract). Coloured glass colours the light that crosses it as
+in Cycles: the sun through a green pane, and stripes seen through a coloured slab."""
 import numpy as np
 import pytest
 
@@ -13,7 +14,8 @@ from conftest import (add_mesh, add_sun, camera_and_black_world, combined_agains
 pytestmark = pytest.mark.blender
 
 
-def window_blend(tmp_path):
+def window_blend(tmp_path, colour=(1.0, 1.0, 1.0)):
+    """The room with its window pane a Glass BSDF of ``colour``."""
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -31,7 +33,8 @@ def window_blend(tmp_path):
                           ("Sill", [(-0.6, y1, 0), (0.6, y1, 0), (0.6, y1, 0.8), (-0.6, y1, 0.8)]),
                           ("Lintel", [(-0.6, y1, 1.8), (0.6, y1, 1.8), (0.6, y1, top), (-0.6, y1, top)])):
         add_mesh(bpy, name, corners, [(0, 1, 2, 3)], material=white)
-    glass = shader_material(bpy, "Glass", "ShaderNodeBsdfGlass", {"Roughness": 0.0, "IOR": 1.5})
+    glass = shader_material(bpy, "Glass", "ShaderNodeBsdfGlass",
+                            {"Roughness": 0.0, "IOR": 1.5, "Color": (*colour, 1.0)})
     c = [(x, y, z) for z in (0.8, 1.8) for y in (1.99, 2.01) for x in (-0.6, 0.6)]
     add_mesh(bpy, "Pane", c, [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)],
              material=glass)
@@ -45,28 +48,33 @@ def window_blend(tmp_path):
     return path
 
 
-def test_the_sun_through_a_glass_pane_lights_the_room_as_in_cycles(ext, tmp_path):
-    blend = window_blend(tmp_path)
-    ours, reference = tmp_path / "ours.exr", tmp_path / "reference.exr"
-    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "16")
+def ours_and_cycles(blend, tmp_path, samples: int, reference_samples: int, *options):
+    """The paths of the engine's render of ``blend`` at ``samples`` (with the CLI's ``options``; it must give no
+    warning) and of Cycles' at ``reference_samples``."""
+    ours, cycles = tmp_path / f"{blend.stem}.exr", tmp_path / f"{blend.stem}-cycles.exr"
+    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", samples, *options)
     assert code == 0 and "warning" not in stderr.lower(), stderr
-    code, _, stderr = run_cli("reference", blend, "-o", reference, "--samples", 1024, "--cache-dir",
+    code, _, stderr = run_cli("reference", blend, "-o", cycles, "--samples", reference_samples, "--cache-dir",
                               tmp_path / "cache")
     assert code == 0, stderr
-    found = pass_errors(ours, reference, "Diffuse Indirect")
+    return ours, cycles
+
+
+def test_the_sun_through_a_glass_pane_lights_the_room_as_in_cycles(ext, tmp_path):
+    found = pass_errors(*ours_and_cycles(window_blend(tmp_path), tmp_path, 16, 1024), "Diffuse Indirect")
     print(f"window: Diffuse Indirect ratio {found['mean_ratio']:.3f} rMAE {found['rmae']:.3f} (Cycles' caustic "
           f"through the pane is noise at 1024 spp; the mean is the measure)")
     assert abs(found["mean_ratio"] - 1.0) <= 0.10
 
 
-def principled_glass(bpy, roughness: float, distribution: str = "MULTI_GGX"):
-    """A clear Principled BSDF glass (Transmission Weight 1, IOR 1.5) of ``roughness`` and microfacet
-    ``distribution``."""
+def principled_glass(bpy, roughness: float, distribution: str = "MULTI_GGX", colour=(1.0, 1.0, 1.0)):
+    """A Principled BSDF glass (Transmission Weight 1, IOR 1.5) of ``roughness``, microfacet ``distribution`` and
+    Base Color ``colour``."""
     glass = bpy.data.materials.new("Glass")
     if glass.node_tree is None:  # Blender < 5.0
         glass.use_nodes = True
     bsdf = glass.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (1.0, 1.0, 1.0, 1.0)
+    bsdf.inputs["Base Color"].default_value = (*colour, 1.0)
     bsdf.inputs["Roughness"].default_value = roughness
     bsdf.inputs["Transmission Weight"].default_value = 1.0
     bsdf.distribution = distribution
@@ -95,13 +103,8 @@ def ball_blend(tmp_path):
 
 def test_a_glass_ball_shows_the_wall_behind_it_refracted_as_cycles_does(ext, tmp_path):
     from vpl_gi.vpl_addon.core.exr import read_passes
-    blend = ball_blend(tmp_path)
-    ours, cycles = tmp_path / "ours.exr", tmp_path / "cycles.exr"
-    code, _, stderr = run_cli("render", blend, "-o", ours, "--samples", "64", "--method", "none")
-    assert code == 0, stderr
-    code, _, stderr = run_cli("reference", blend, "-o", cycles, "--samples", "256", "--cache-dir", tmp_path / "c")
-    assert code == 0, stderr
-    a, b = (read_passes(str(p))[0]["Combined"][..., :3] for p in (ours, cycles))
+    a, b = (read_passes(str(p))[0]["Combined"][..., :3]
+            for p in ours_and_cycles(ball_blend(tmp_path), tmp_path, 64, 256, "--method", "none"))
     y, x = np.mgrid[:40, :40] + 0.5
     r = np.hypot(x - 20, y - 20)
     disc = r < 0.6 * 20 * (1.0 / np.sqrt(4.0 ** 2 - 1.0)) * 50.0 / 18.0  # well inside the ball's image
@@ -113,11 +116,11 @@ def test_a_glass_ball_shows_the_wall_behind_it_refracted_as_cycles_does(ext, tmp
     assert np.abs(a[disc] - b[disc]).mean() < 0.1 * b[disc].mean()
 
 
-def frosted_blend(tmp_path, roughness: float):
+def frosted_blend(tmp_path, roughness: float, colour=(1.0, 1.0, 1.0)):
     """Glowing stripes 0.4 m wide, 0.4 m apart, on a black backdrop 3 m ahead, seen through a 4 cm glass slab of
-    ``roughness`` 2 m in front of them that fills the view. The glass is single-scattering GGX: the engine's model;
-    Cycles' default Multiscatter GGX passes 3.4 % more light here (its energy compensation, which the engine does
-    not add to refraction: bench/README.md, twenty-sixth session)."""
+    ``roughness`` and Base Color ``colour`` 2 m in front of them that fills the view. The glass is single-scattering
+    GGX: the engine's model; Cycles' default Multiscatter GGX passes 3.4 % more light here (its energy compensation,
+    which the engine does not add to refraction: bench/README.md, twenty-sixth session)."""
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -130,9 +133,9 @@ def frosted_blend(tmp_path, roughness: float):
     add_mesh(bpy, "Backdrop", [(-20, 3.1, -20), (-20, 3.1, 20), (20, 3.1, 20), (20, 3.1, -20)], [(0, 1, 2, 3)], black)
     c = [(x, y, z) for z in (-3, 3) for y in (0.98, 1.02) for x in (-3, 3)]
     add_mesh(bpy, "Slab", c, [(0, 2, 3, 1), (4, 5, 7, 6), (0, 1, 5, 4), (2, 6, 7, 3), (0, 4, 6, 2), (1, 3, 7, 5)],
-             material=principled_glass(bpy, roughness, "GGX"))
+             material=principled_glass(bpy, roughness, "GGX", colour))
     camera_and_black_world(bpy, scene, (0.0, -4.0, 0.0), (np.radians(90.0), 0.0, 0.0))
-    path = tmp_path / f"frosted{roughness}.blend"
+    path = tmp_path / f"frosted{roughness}-{colour}.blend"
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return path
 
@@ -144,3 +147,23 @@ def test_rough_glass_blurs_what_lies_behind_it_as_cycles_does(ext, tmp_path):
           f"{e_cycles['rmae']:.4f}; mean ratio {e_ours['mean_ratio']:.4f}")
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.01 and abs(e_ours["mean_ratio"] - 1.0) < 0.01
     assert e_smooth["rmae"] > 2.0 * e_ours["rmae"]  # sharp stripes where Cycles blurs them
+
+
+def test_coloured_glass_colours_what_is_seen_and_lit_through_it_as_in_cycles(ext, tmp_path):
+    """A Principled slab of Base Color (0.25, 0.5, 1) in front of white stripes passes (1 - F)^2 x Base Color, as
+    Cycles (a closed solid takes its Base Color: the square root at each face), and the sun through a Glass BSDF
+    pane of Color (0.3, 0.9, 0.5) lights the floor with that colour (times 1 - F, at each of the pane's faces)."""
+    from vpl_gi.vpl_addon.core.exr import read_passes
+
+    def means(paths, name):
+        return (read_passes(str(p))[0][name][..., :3].reshape(-1, 3).mean(axis=0) for p in paths)
+    slab = frosted_blend(tmp_path, 0.0, (0.25, 0.5, 1.0))
+    a, b = means(ours_and_cycles(slab, tmp_path, 16, 64, "--method", "none"), "Combined")
+    print(f"through a coloured slab: ours {a}, Cycles {b}")
+    assert np.allclose(a / b, 1.0, atol=0.02)
+    assert b[0] < 0.3 * b[2] and b[1] < 0.6 * b[2]  # the slab's colour, not grey
+    window = window_blend(tmp_path, (0.3, 0.9, 0.5))
+    a, b = means(ours_and_cycles(window, tmp_path, 16, 1024), "Diffuse Indirect")
+    print(f"the sun through a coloured pane, Diffuse Indirect: ours {a}, Cycles {b}")
+    assert np.allclose(a / b, 1.0, atol=0.1)
+    assert b[0] < 0.5 * b[1]  # green light

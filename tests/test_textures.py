@@ -65,7 +65,8 @@ def test_textured_roughness_metallic_and_base_colour_reach_the_surface():
     assert np.allclose(s.roughness, [0.25, 0.75], atol=1e-6)
     assert np.allclose(s.metallic, [1.0, 0.0], atol=1e-6)
     assert np.allclose(s.specular, [[0.5, 0.25, 0.0]] * 2)  # the metal's F0 is the textured base colour
-    assert np.allclose(s.albedo[1], [0.5, 0.25, 0.0]) and np.allclose(s.albedo[0], 0.0)
+    # the metal's metallic comes out of float32 filtering as 1 - 6e-8 on some CPUs: albedo 1e-8, not 0
+    assert np.allclose(s.albedo[1], [0.5, 0.25, 0.0]) and np.allclose(s.albedo[0], 0.0, atol=1e-6)
 
 
 @pytest.mark.parametrize("mirrored", [False, True])

@@ -308,11 +308,12 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)
                     guard("gather", {P.GLOSSY_INDIRECT: reflected})
                     at = gbuf.sample[shiny] // gbuf.spp
-                    shine[pixels] = group_sum(at, reflected, len(pixels))
-                    shine_color[pixels] = group_sum(at, lobe.color[shiny], len(pixels))
+                    shine[pixels] = group_sum(at, gbuf.tinted(reflected, shiny), len(pixels))
+                    shine_color[pixels] = group_sum(at, gbuf.tinted(lobe.color[shiny], shiny), len(pixels))
                 at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
-                indirect[pixels] = _divide(group_sum(at, sub.albedo * light, len(pixels)),
-                                           group_sum(at, sub.albedo, len(pixels)))
+                albedo = gbuf.tinted(sub.albedo, rows)
+                indirect[pixels] = _divide(group_sum(at, albedo * light, len(pixels)),
+                                           group_sum(at, albedo, len(pixels)))
                 for kind, guides in enumerate(((rows, shiny) if lobe is not None else (rows,)) if filtering else ()):
                     local = gbuf.sample[guides] // gbuf.spp
                     guide_position[kind, pixels] = group_sum(local, surf.position[guides], len(pixels))
@@ -320,7 +321,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
             marks["gather"] = time.perf_counter()
             lamps = gbuf.lamps()  # the lights the camera sees
-            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission) + lamps
+            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission, True) + lamps
             images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
             if need_background:
                 background = gbuf.background(lights.world)
@@ -329,20 +330,22 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     images[P.COMBINED][pixels, :3] += background
                 if P.ENVIRONMENT in want:
                     images[P.ENVIRONMENT][pixels] = background
-            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo)
+            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo, True)
             if P.DIFFUSE_DIRECT in want:
-                images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct),
+                images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct, True),
                                                            images[P.DIFFUSE_COLOR][pixels])
             if through is not None:
                 guard("direct light", {P.DIFFUSE_INDIRECT: through})
-                images[P.COMBINED][pixels, :3] += gbuf.splat(surf.albedo * through)
-                glazed[pixels] = _divide(gbuf.splat(surf.albedo * through), images[P.DIFFUSE_COLOR][pixels])
+                glass_light = gbuf.splat(surf.albedo * through, True)
+                images[P.COMBINED][pixels, :3] += glass_light
+                glazed[pixels] = _divide(glass_light, images[P.DIFFUSE_COLOR][pixels])
             if lobe is not None:
-                color = glossy_color[pixels] = gbuf.splat(lobe.color)
-                for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy), color))):
+                color = glossy_color[pixels] = gbuf.splat(lobe.color, True)
+                for name, image in ((P.GLOSSY_COLOR, color),
+                                    (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy, True), color))):
                     if name in want:
                         images[name][pixels] = image
-            emitted = gbuf.splat(surf.emission) + lamps if {P.EMIT, P.DENOISING_ALBEDO} & want else None
+            emitted = gbuf.splat(surf.emission, True) + lamps if {P.EMIT, P.DENOISING_ALBEDO} & want else None
             if P.EMIT in want:
                 images[P.EMIT][pixels] = emitted
             if P.DENOISING_ALBEDO in want:  # Cycles': the colour reflected, plus what is emitted and the world seen

@@ -22,10 +22,23 @@ def take(array: np.ndarray, rows) -> np.ndarray:
 
 
 def take_fields(record, rows):
-    """A record of the same type holding ``rows`` of each of its fields."""
-    return type(record)(*(take(getattr(record, f.name), rows) for f in fields(record)))
+    """A record of the same type holding ``rows`` of each of its fields (a field that is None stays None)."""
+    return type(record)(*(None if (value := getattr(record, f.name)) is None else take(value, rows)
+                          for f in fields(record)))
 
 
 def concat_fields(kind, parts):
-    """A record of type ``kind`` holding the rows of ``parts`` (records of that type) one after another."""
-    return kind(*(np.concatenate([getattr(p, f.name) for p in parts]) for f in fields(kind)))
+    """A record of type ``kind`` holding the rows of ``parts`` (records of that type) one after another. A field
+    that is None in every part stays None; one that only some parts hold is ones in the rows of the others
+    (``Hits.tint``: the rays that crossed no coloured glass)."""
+    def column(name):
+        values = [getattr(p, name) for p in parts]
+        if all(v is not None for v in values):
+            return np.concatenate(values)
+        if all(v is None for v in values):
+            return None
+        shape = next(v for v in values if v is not None).shape[1:]
+        first = fields(kind)[0].name
+        return np.concatenate([np.ones((len(getattr(p, first)), *shape)) if v is None else v
+                               for p, v in zip(parts, values)])
+    return kind(*(column(f.name) for f in fields(kind)))

@@ -58,7 +58,7 @@ class Materials:
     (``map_of[input]`` indexes ``maps`` per material, -1 for none)."""
 
     names: list[str]
-    base_color: np.ndarray  # (M,3) linear RGB albedo of the diffuse lobe
+    base_color: np.ndarray  # (M,3) linear RGB albedo of the diffuse lobe; of glass, what crossing a face leaves
     roughness: np.ndarray  # (M,)
     metallic: np.ndarray  # (M,)
     emission: np.ndarray  # (M,3) emitted radiance, W/(m^2 sr): Emission Color x Strength

@@ -10,7 +10,8 @@ near zero scaled to the scene's extent so tiny and huge scenes behave alike.
 Alpha cut-outs and thin glass (``materials.cutouts``, handed in as ``cutouts``): a hit on a triangle with holes
 or glass is kept with the probability of its opacity; a ray that goes on is traced again from just past the
 surface, at most ``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then
-stops the ray). Occlusion queries trace closest hits only for the rays embree's any-hit query found blocked.
+stops the ray). Occlusion queries trace closest hits only for the rays embree's any-hit query found blocked. Rays
+asked to (``tinted``) carry the colour of the coloured glass they cross (``Hits.tint``).
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ class Hits:
     t: np.ndarray  # (N,) float64 distance along the (unit) direction, inf for a miss
     u: np.ndarray  # (N,) barycentric weight of corner 1
     v: np.ndarray  # (N,) barycentric weight of corner 2
+    tint: np.ndarray | None = None  # (N,3) what coloured glass on the way leaves of the light (``tinted``), or None
 
     @property
     def hit(self) -> np.ndarray:
@@ -119,24 +121,26 @@ class Tracer:
         parts = list(self._pool.map(job, starts)) if self._pool and n > CHUNK else [job(s) for s in starts]
         return parts
 
-    def intersect(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
+    def intersect(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR, tinted: bool = False) -> Hits:
         """Closest hits of rays with unit directions, up to distance tmax (scalar or per ray), through the holes and
-        panes of ``cutouts``."""
-        return self.intersect_through(origins, dirs, tmax)[0]
+        panes of ``cutouts``. ``tinted``: the rays carry the colour of the coloured glass they cross
+        (``Hits.tint``; ``Cutouts.passes``) rather than crossing it as grey."""
+        return self.intersect_through(origins, dirs, tmax, tinted)[0]
 
-    def intersect_through(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray]:
+    def intersect_through(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR,
+                          tinted: bool = False) -> tuple[Hits, np.ndarray]:
         """(``intersect``'s hits, (N,) bool: which rays went through glass on the way)."""
-        hits, crossed, _ = self._layers(origins, dirs, tmax, bend=False)
+        hits, crossed, _ = self._layers(origins, dirs, tmax, bend=False, tinted=tinted)
         return hits, crossed
 
     def intersect_bent(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray]:
-        """``intersect`` for rays that refract at glass as Cycles' camera rays do (``Cutouts.passes`` with
-        ``bend``): their hits, ``t`` the length of the whole bent path, and (N,3) the unit direction each ray has
-        at its hit (or leaves the scene with)."""
-        hits, _, heading = self._layers(origins, dirs, tmax, bend=True)
+        """``intersect`` (``tinted``) for rays that refract at glass as Cycles' camera rays do (``Cutouts.passes``
+        with ``bend``): their hits, ``t`` the length of the whole bent path, and (N,3) the unit direction each ray
+        has at its hit (or leaves the scene with)."""
+        hits, _, heading = self._layers(origins, dirs, tmax, bend=True, tinted=True)
         return hits, heading
 
-    def _layers(self, origins, dirs, tmax, bend: bool) -> tuple[Hits, np.ndarray, np.ndarray]:
+    def _layers(self, origins, dirs, tmax, bend: bool, tinted: bool = False) -> tuple[Hits, np.ndarray, np.ndarray]:
         """Closest hits through the holes and panes of ``cutouts``, which rays went through glass, and the
         directions the rays end with (``dirs`` itself unless ``bend``). Only the rays that meet a cut-out triangle
         carry the state of their last segment (its start, direction and the path's length there)."""
@@ -148,6 +152,8 @@ class Tracer:
         todo = todo[self.cutouts.prims[hits.prim[todo]]]
         if not len(todo):
             return hits, crossed, dirs
+        if tinted and self.cutouts.coloured:
+            hits.tint = np.ones((len(origins), 3))
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         rng = self._stream(origins, dirs)
         heading = np.array(dirs, np.float64) if bend else dirs
@@ -160,8 +166,11 @@ class Tracer:
                 if not len(todo):
                     break
             ng = self._face_normals()[hits.prim[todo]]
-            on, glass, onward = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], d, ng, rng, bend)
+            on, glass, onward, weight = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], d, ng, rng,
+                                                            bend, tinted)
             crossed[todo[glass]] = True
+            if weight is not None:
+                hits.tint[todo] *= weight
             todo, base, d, walked, ng, onward = todo[on], base[on], d[on], walked[on], ng[on], onward[on]
             if not len(todo):
                 break
@@ -213,22 +222,27 @@ class Tracer:
         """True where something lies along the ray before tmax."""
         return self.occluded_through(origins, dirs, tmax)[0]
 
-    def occluded_through(self, origins: np.ndarray, dirs: np.ndarray, tmax) -> tuple[np.ndarray, np.ndarray]:
-        """(``occluded``, (N,) bool: which unblocked rays went through glass)."""
+    def occluded_through(self, origins: np.ndarray, dirs: np.ndarray, tmax,
+                         tinted: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
+        """(``occluded``, (N,) bool: which unblocked rays went through glass, and with ``tinted`` (N,3) what
+        coloured glass leaves of each unblocked ray's light, or None where no coloured glass is met)."""
         n = len(origins)
         if self._scene is None or n == 0:
-            return np.zeros(n, bool), np.zeros(n, bool)
+            return np.zeros(n, bool), np.zeros(n, bool), None
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (n,))
         if OCCLUSION_RECORDER is not None:
             OCCLUSION_RECORDER(origins, dirs, tmax)
         parts = self._run(origins, dirs, tmax, "OCCLUDED")
         blocked = np.concatenate(parts) >= 0
-        crossed = np.zeros(n, bool)
+        crossed, tint = np.zeros(n, bool), None
         if self.cutouts is not None:  # blocked by a hole or a pane? the closest hits through them tell
             rows = np.nonzero(blocked)[0]
-            hits, through = self.intersect_through(origins[rows], dirs[rows], tmax[rows])
+            hits, through = self.intersect_through(origins[rows], dirs[rows], tmax[rows], tinted)
             blocked[rows], crossed[rows] = hits.hit, through & ~hits.hit
-        return blocked, crossed
+            if hits.tint is not None:
+                tint = np.ones((n, 3))
+                tint[rows] = hits.tint
+        return blocked, crossed, tint
 
     def offset_origin(self, p: np.ndarray, n: np.ndarray) -> np.ndarray:
         """Move points p off their surface along the (geometric) normal n, toward the side n points to: by
@@ -248,7 +262,8 @@ class Tracer:
 
     def visible_through(self, p: np.ndarray, n: np.ndarray, dirs: np.ndarray, dist: np.ndarray,
                         target_normal: np.ndarray | None = None, origin: np.ndarray | None = None,
-                        at: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+                        at: np.ndarray | None = None, tinted: bool = False
+                        ) -> tuple[np.ndarray, np.ndarray, np.ndarray | None]:
         """Visibility from surface points p (geometric normal n) along unit dirs to a point at distance dist.
 
         The origin is offset to the side of n that dirs leaves through; when the target lies on a surface too,
@@ -256,11 +271,12 @@ class Tracer:
         target normal means the target is not on geometry). ``origin``: the offset origins when the caller has
         them already (many rays leaving one point through the same side, ``offset_origin(p, n)``). ``at``: p and
         ``origin`` (then required) hold a row per point, and ray i leaves point at[i] (many rays from one point
-        need no copies of it). Returns (visible, whether the visible ray went through glass).
+        need no copies of it). Returns (visible, whether the visible ray went through glass, and with ``tinted``
+        what coloured glass leaves of its light, ``occluded_through``).
         """
         count = len(dirs)
         if self._scene is None or count == 0:
-            return np.ones(count, bool), np.zeros(count, bool)
+            return np.ones(count, bool), np.zeros(count, bool), None
         if origin is None:
             side = np.where((np.einsum("ij,ij->i", n, dirs) >= 0.0)[:, None], n, -n)
             origin = self.offset_origin(p, side)
@@ -273,11 +289,11 @@ class Tracer:
         if self.cutouts is None and OCCLUSION_RECORDER is None:  # the rays made in embree's terms: no copies
             o, d, t = np.empty((count, 3), np.float32), np.empty((count, 3), np.float32), np.empty(count, np.float32)
             _segments(p, at, dirs, dist, origin, target, self.center, o, d, t)
-            return np.concatenate(self._run32(o, d, t, "OCCLUDED")) < 0, np.zeros(count, bool)
+            return np.concatenate(self._run32(o, d, t, "OCCLUDED")) < 0, np.zeros(count, bool), None
         o, d, t = np.empty((count, 3)), np.empty((count, 3)), np.empty(count)
         _segments(p, at, dirs, dist, origin, target, np.zeros(3), o, d, t)
-        blocked, crossed = self.occluded_through(o, d, t)
-        return ~blocked, crossed
+        blocked, crossed, tint = self.occluded_through(o, d, t, tinted)
+        return ~blocked, crossed, tint
 
 
 @kernel

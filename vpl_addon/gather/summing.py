@@ -75,7 +75,9 @@ def _add_pairs(surface, vpls, ends, point_index, vpl_index, group, tracer, d_min
         lit = np.nonzero(g > 0.0)[0]
         rows, g, origin, direction, tmax = rows[lit], g[lit], origin[lit], direction[lit], tmax[lit]
     if len(rows):
-        _accumulate(group, vpl_index, rows, g, tracer.occluded(origin, direction, tmax), vpls.intensity, out)
+        blocked, _, tint = tracer.occluded_through(origin, direction, tmax, tinted=True)
+        _accumulate(group, vpl_index, rows, g, blocked, np.zeros((0, 3)) if tint is None else tint, vpls.intensity,
+                    out)
 
 
 @kernel
@@ -123,15 +125,17 @@ def _pairs(position, ng, ns, q, nq, origins, targets, point_index, vpl_index, d_
 
 
 @kernel
-def _accumulate(group, vpl_index, rows, g, blocked, intensity, out):
-    """out[group[r]] += intensity[vpl_index[r]] g for the pairs r = rows[i] not ``blocked``, in pair order."""
+def _accumulate(group, vpl_index, rows, g, blocked, tint, intensity, out):
+    """out[group[r]] += intensity[vpl_index[r]] g (times ``tint[i]``, what coloured glass between them leaves, if
+    given: ``tint`` has a row per pair or none) for the pairs r = rows[i] not ``blocked``, in pair order."""
+    tinted = len(tint) > 0
     for i in range(len(rows)):
         if blocked[i]:
             continue
         r = rows[i]
         at, b = group[r], vpl_index[r]
         for c in range(3):
-            out[at, c] += intensity[b, c] * g[i]
+            out[at, c] += intensity[b, c] * g[i] * (tint[i, c] if tinted else 1.0)
 
 
 def gather(surface, pixel_xy, vpls, tracer, settings: GatherSettings, d_min: float,

@@ -105,9 +105,11 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
     if len(sel) == 0:
         return
     on_geometry = None if target_n is None else target_n[sel]
-    seen, glass = tracer.visible_through(p, ng, wi[sel], dist[sel], on_geometry, origin, at=owner[sel])
+    seen, glass, tint = tracer.visible_through(p, ng, wi[sel], dist[sel], on_geometry, origin, at=owner[sel],
+                                               tinted=True)
     sel, glass = sel[seen], glass[seen]
-    light = weight[sel] * (cos[sel] / np.pi)[:, None]
+    arrived = weight[sel] if tint is None else weight[sel] * tint[seen]  # coloured by the glass on the way
+    light = arrived * (cos[sel] / np.pi)[:, None]
     if through is not None and glass.any():
         through[lo:hi] += group_sum(owner[sel[glass]], light[glass], hi - lo)
         light[glass] = 0.0
@@ -117,7 +119,7 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
         lit = np.nonzero(glossy.present[point])[0]
         value, p_lobe = glossy.evaluate(wi[sel[lit]], point[lit])
         value *= power_heuristic(light_pdf(sel[lit]), p_lobe)[:, None]
-        shine[lo:hi] += group_sum(owner[sel[lit]], weight[sel[lit]] * value, hi - lo)
+        shine[lo:hi] += group_sum(owner[sel[lit]], arrived[lit] * value, hi - lo)
 
 
 def _lobe_samples(shine, at, lights, tracer, glossy, rng):
@@ -145,8 +147,12 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
         hit = np.nonzero((pdf > 0.0) & (largest(radiance) > 0.0))[0]
         if index is not None:  # times the probability of choosing the light there
             pdf[hit] *= lights.selection(p[rows[hit]], ns[rows[hit]], np.full(len(hit), index))
-        hit = hit[tracer.visible(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None, origin[owner[rows[hit]]])]
+        seen, _, tint = tracer.visible_through(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None,
+                                               origin[owner[rows[hit]]], tinted=True)
         light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]
+        if tint is not None:
+            light_in *= tint
+        hit, light_in = hit[seen], light_in[seen]
         shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)
 
 

@@ -12,7 +12,15 @@ it reflects is 1 - T in expectation. Camera rays refract as they go on (``Tracer
 the interpolated normal, F of the interface from the side the ray comes from), so a glass ball shows the room upside
 down as in Cycles, and rough glass blurs what lies behind it; every other ray (shadow rays, light paths, the
 gather's) takes glass as a thin sheet and goes on straight, with F at the IOR on both faces, which is exact for a
-pane and keeps shadow rays straight segments. The tint is grey.
+pane and keeps shadow rays straight segments.
+
+Coloured glass (channels of its tint unequal; the tint is the colour light keeps crossing one face, ``Materials``:
+the Glass BSDF's Color, the Principled BSDF's square root of Base Color, as Cycles tints each crossing): a ray asked
+for its colour (``tinted``) goes on with probability (1 - F) x the tint's largest channel and carries the tint
+divided by that channel as a weight (at most 1, so no ray gains light). The camera's rays, the shadow rays of
+direct light, light paths and the summing gather's shadow rays carry it; the rays that ask only whether or where
+they hit (a BSDF sample of the photon lights' gather, a camera path's extension, smc's and bidir's own visibility,
+AO) take the tint's luminance as the grey above.
 
 ``Tracer`` asks a ``Cutouts`` at every hit on such a triangle, so camera rays, shadow rays, light paths and the
 gather's visibility all see the same holes and panes; it also reports which rays went through glass, whose light
@@ -35,7 +43,13 @@ class Cutouts:
         self._scene = scene
         self._alpha_map = m.mapped("alpha")
         self._glass = m.glass
-        self._clear = luminance(np.clip(m.base_color.astype(np.float64), 0.0, 1.0))  # the glass's tint, grey
+        tint = np.clip(m.base_color.astype(np.float64), 0.0, 1.0)  # what crossing a face of the glass leaves
+        most = tint.max(axis=1)
+        coloured = self._glass & (most > tint.min(axis=1))
+        self.coloured = bool(coloured.any())  # whether any ray asked for its colour can get one but grey
+        self._grey = luminance(tint)  # the chance to pass (times 1 - F) of a ray that does not carry colour
+        self._clear = np.where(coloured, most, self._grey)  # and of one that does, carrying ``_tint``
+        self._tint = np.where(coloured[:, None], tint / np.maximum(most, 1e-300)[:, None], 1.0)
         self._roughness = np.clip(np.nan_to_num(m.roughness.astype(np.float64)), 0.0, 1.0)
         holed = (m.alpha < 1.0) | (self._alpha_map >= 0) | self._glass
         self.prims = holed[scene.material]  # (T,) bool
@@ -56,10 +70,12 @@ class Cutouts:
         return np.clip(np.nan_to_num(out, nan=1.0), 0.0, 1.0)
 
     def passes(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, d: np.ndarray, ng: np.ndarray,
-               rng: np.random.Generator, bend: bool = False) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(goes on (N,) bool, through glass (N,) bool, (N,3) the unit directions they go on with) for rays of unit
-        directions ``d`` hitting (prim, u, v) of geometric normals ``ng``: each goes on with probability
-        1 - alpha + alpha T (T of glass, 0 otherwise), through a hole straight.
+               rng: np.random.Generator, bend: bool = False, tinted: bool = False
+               ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
+        """(goes on (N,) bool, through glass (N,) bool, (N,3) the unit directions they go on with, (N,3) the colour
+        weight of each or None) for rays of unit directions ``d`` hitting (prim, u, v) of geometric normals ``ng``:
+        each goes on with probability 1 - alpha + alpha T (T of glass, 0 otherwise), through a hole straight. The
+        weight (``tinted`` rays, where some glass is coloured) is 1 but for the rays through coloured glass.
 
         Without ``bend`` a pane is a thin sheet: the ray goes on straight and T takes F at the IOR from either side.
         With ``bend`` the glass is a solid's surface, as Cycles' Glass BSDF renders it: the IOR is relative to the
@@ -88,11 +104,15 @@ class Cutouts:
                     normal[rough] = self._microfacets(normal[rough], d[glass[rough]], mat[glass[rough]], rng)
                 cos = np.einsum("ij,ij->i", normal, d[glass])
             fresnel = dielectric_fresnel(cos, ior)
-            clear[glass] = (1.0 - fresnel) * self._clear[mat[glass]]
+            clear[glass] = (1.0 - fresnel) * (self._clear if tinted else self._grey)[mat[glass]]
         hole = x >= alpha
         through = ~hole & (x < alpha * clear)
+        weight = None
+        if tinted and self.coloured:
+            weight = np.ones((len(prim), 3))
+            weight[through] = self._tint[mat[through]]
         if not bend or not len(glass):
-            return hole | through, through, onward
+            return hole | through, through, onward, weight
         rows = np.nonzero(through[glass])[0]
         bent, ok = _refracted(d[glass[rows]], normal[rows], ior[rows], ng[glass[rows]])
         onward[glass[rows]] = bent
@@ -105,7 +125,9 @@ class Cutouts:
         onward[glass[back[kept]]] = turned[kept]
         on = hole | through
         on[glass[back[kept]]] = True
-        return on, through, onward
+        if weight is not None:  # a ray past the critical angle did not cross
+            weight[glass[rows[~ok]]] = 1.0
+        return on, through, onward, weight
 
     def _microfacets(self, normal, d, mat, rng) -> np.ndarray:
         """(N,3) microfacet normals of rough glass for rays ``d`` at points of smooth ``normal`` (either side):

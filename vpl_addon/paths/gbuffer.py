@@ -7,7 +7,8 @@ Passes are formed by ``splat``: the mean over a pixel's samples, misses counting
 with a transparent background; ``background`` is the other share of the pixel, what its missing samples see of the
 world (Cycles' Environment pass). A light the camera sees (``Light.visible``: an area light, a point or spot
 light's sphere or disc, the sun's disc in the sky) adds its radiance to what its samples see behind it, as in
-Cycles (``lamps``).
+Cycles (``lamps``). What the samples see through coloured glass carries its colour (``tint``: Combined and the
+colour passes take it, the data passes do not), as Cycles' throughput does.
 """
 from __future__ import annotations
 
@@ -39,7 +40,7 @@ def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=N
         t, radiance = found
         seen = (t > 0.0) & ((t < far) | (np.isinf(t) & ~hits.hit))  # a sun where the ray reaches the sky
         lamp[seen] += radiance[seen]
-    return dirs, hits, lamp
+    return heading, hits, lamp
 
 
 @dataclass
@@ -52,6 +53,8 @@ class GBuffer:
     miss_direction: np.ndarray  # (M,3) the direction of each miss's camera ray
     on_lamp: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))  # (L,) samples that see a light
     lamp_radiance: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (L,3) what they see of it
+    tint: np.ndarray | None = None  # (K,3) what coloured glass leaves of each hit's light; None: no such glass
+    miss_tint: np.ndarray | None = None  # (M,3) the same for the misses
 
     @staticmethod
     def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
@@ -69,8 +72,10 @@ class GBuffer:
         sample = np.nonzero(hits.hit)[0]
         on_lamp = np.nonzero((lamp > 0.0).any(axis=1))[0]
         missed = np.nonzero(~hits.hit)[0]
+        tint = (None, None) if hits.tint is None else (hits.tint[sample], hits.tint[missed])
         return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
-                       missed=missed, miss_direction=dirs[missed], on_lamp=on_lamp, lamp_radiance=lamp[on_lamp])
+                       missed=missed, miss_direction=dirs[missed], on_lamp=on_lamp, lamp_radiance=lamp[on_lamp],
+                       tint=tint[0], miss_tint=tint[1])
 
     def __len__(self):
         return len(self.sample)
@@ -80,9 +85,16 @@ class GBuffer:
         """(K,) flat image index of each hit's pixel."""
         return self.pixels[self.sample // self.spp]
 
-    def splat(self, values: np.ndarray) -> np.ndarray:
-        """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film."""
+    def splat(self, values: np.ndarray, tinted: bool = False) -> np.ndarray:
+        """Per-pixel means (P,C) of per-hit values (K,C): misses contribute zero, as with a transparent film.
+        ``tinted``: the values are light or colour, which coloured glass in front of a hit tints (``tinted``)."""
+        values = self.tinted(values) if tinted else values
         return group_sum(self.sample // self.spp, np.asarray(values, np.float64), len(self.pixels)) / self.spp
+
+    def tinted(self, values: np.ndarray, rows=slice(None)) -> np.ndarray:
+        """(R,3) the light or colour ``values`` of the hits ``rows`` as the camera sees them, times what coloured
+        glass in front of each leaves of it (``values`` itself where no glass is coloured)."""
+        return values if self.tint is None else values * self.tint[rows]
 
     def background(self, world) -> np.ndarray:
         """(P,3) per-pixel mean of the radiance ``world`` (a light with ``radiance(w)``, or None for a black world)
@@ -90,8 +102,10 @@ class GBuffer:
         the weight of its samples that miss, as the pixel filter spreads them."""
         if world is None or len(self.missed) == 0:
             return np.zeros((len(self.pixels), 3))
-        return group_sum(self.missed // self.spp, np.asarray(world.radiance(self.miss_direction), np.float64),
-                         len(self.pixels)) / self.spp
+        seen = np.asarray(world.radiance(self.miss_direction), np.float64)
+        if self.miss_tint is not None:
+            seen = seen * self.miss_tint
+        return group_sum(self.missed // self.spp, seen, len(self.pixels)) / self.spp
 
     def lamps(self) -> np.ndarray:
         """(P,3) per-pixel mean of the radiance the camera sees of visible lights (on top of what their samples

@@ -2,7 +2,8 @@
 
 Paths start with ``LightSet.emit`` (lights chosen in proportion to power, or by a given distribution such as the
 camera-driven one of Segovia et al. sec. 4.1), bounce with cosine-weighted directions off the diffuse part or by
-visible normals off a metallic lobe (``microfacet``), and end by Russian roulette (the diffuse lobe is chosen with
+visible normals off a metallic lobe (``microfacet``), take the colour of the coloured glass they cross
+(``materials.cutouts``), and end by Russian roulette (the diffuse lobe is chosen with
 probability its largest albedo channel, the metallic one with its largest Glossy Color channel) or at the bounce
 limit. The random numbers of a batch are
 Latin-hypercube stratified over its paths. The VPL at a bounce carries the path's
@@ -50,10 +51,11 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
             break
         if record is not None:
             record(bounce, origins, dirs, power, path, light if bounce == first_bounce else None)
-        hits = start_hits if bounce == first_bounce and start_hits is not None else tracer.intersect(origins, dirs)
+        hits = start_hits if bounce == first_bounce and start_hits is not None else \
+            tracer.intersect(origins, dirs, tinted=True)
         rows = np.nonzero(hits.hit)[0]
         surf = shade(scene, dirs, hits, rows)
-        incident = power[rows]
+        incident = power[rows] if hits.tint is None else power[rows] * hits.tint[rows]  # past coloured glass
         lit = np.nonzero(largest(surf.albedo) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
         lights_left = len(lit)
         if lights_left == len(rows):  # every hit: no copies

@@ -271,7 +271,7 @@ class LightPathStore:
             vpl_rows, segment_rows = PathRows(self.vpls.path, self.vpls.bounce), PathRows(seg["path"], seg["bounce"])
         while len(pending) and threshold > 0.0:
             origin, direction = seg["origin"][pending], seg["direction"][pending]
-            hits = tracer.intersect(origin, direction)
+            hits = tracer.intersect(origin, direction, tinted=True)  # as ``trace_paths`` traces them
             at = vpl_rows.find(seg["path"][pending], seg["bounce"][pending])
             rows = np.nonzero(hits.hit & (at >= 0))[0]
             surf = shade(scene, direction, hits, rows)
@@ -283,6 +283,8 @@ class LightPathStore:
             after = segment_rows.find(seg["path"][pending[rows]], seg["bounce"][pending[rows]] + 1)
             old_dir = seg["direction"][np.maximum(after, 0)]
             new_energy = seg["power"][pending[rows]] * surf.albedo * arrival_factor(surf)[:, None]
+            if hits.tint is not None:
+                new_energy *= hits.tint[rows]
             old_energy = self.vpls.intensity[at[rows]] * (np.pi * self.paths)
             close = np.zeros(len(pending), bool)
             close[rows] = (np.abs(new_energy - old_energy) <= threshold * old_energy).all(axis=1) & \
