@@ -20,10 +20,25 @@ DATA_TOGGLES = ("use_pass_z", "use_pass_normal", "use_pass_position", "use_pass_
                 "use_pass_cryptomatte_material", "use_pass_cryptomatte_asset")
 
 
-def _render_both(tmp, filter_width, samples, toggles):
-    """Cycles' and our passes of the Cornell box, 48 x 48, with the pixel filter's width, samples and pass toggles
-    given, mist from 2.5 m over 3 m (the box spans 2.9 to 5.1 m from the camera), each object and material with its
-    own pass index, the boxes parented to an empty (their asset), and the file header of each."""
+def _numbered_box(scene):
+    """The Cornell box as ``_render_both``'s tests see it: mist from 2.5 m over 3 m (the box spans 2.9 to 5.1 m from
+    the camera), each object and material with its own pass index, the boxes parented to an empty (their asset)."""
+    import bpy
+    for index, obj in enumerate(o for o in scene.objects if o.type == "MESH"):
+        obj.pass_index = index + 1
+    for index, material in enumerate(bpy.data.materials):
+        material.pass_index = 10 + index
+    group = bpy.data.objects.new("Boxes", None)
+    scene.collection.objects.link(group)
+    for name in ("TallBox", "ShortBox"):
+        scene.objects[name].parent = group
+    mist = scene.world.mist_settings
+    mist.start, mist.depth, mist.falloff = 2.5, 3.0, "LINEAR"
+
+
+def _render_both(tmp, filter_width, samples, toggles, blend=None, setup=_numbered_box):
+    """Cycles' and our passes of ``blend`` (the Cornell box), 48 x 48, with the pixel filter's width, samples and
+    pass toggles given, after ``setup(scene)``, and the file header of each."""
     import bpy
 
     from conftest import ROOT
@@ -33,21 +48,12 @@ def _render_both(tmp, filter_width, samples, toggles):
 
     out = {}
     for who in ("cycles", "ours"):
-        bpy.ops.wm.open_mainfile(filepath=str(ROOT / "example_blends" / "cornell_area.blend"))
+        bpy.ops.wm.open_mainfile(filepath=str(blend or ROOT / "example_blends" / "cornell_area.blend"))
         scene = bpy.context.scene
         scene.render.resolution_x = scene.render.resolution_y = 48
         scene.render.resolution_percentage = 100
         scene.render.film_transparent = True
-        for index, obj in enumerate(o for o in scene.objects if o.type == "MESH"):
-            obj.pass_index = index + 1
-        for index, material in enumerate(bpy.data.materials):
-            material.pass_index = 10 + index
-        group = bpy.data.objects.new("Boxes", None)
-        scene.collection.objects.link(group)
-        for name in ("TallBox", "ShortBox"):
-            scene.objects[name].parent = group
-        mist = scene.world.mist_settings
-        mist.start, mist.depth, mist.falloff = 2.5, 3.0, "LINEAR"
+        setup(scene)
         for toggle in toggles:
             setattr(scene.view_layers[0], toggle, True)
         scene.view_layers[0].pass_cryptomatte_depth = 4
@@ -134,6 +140,22 @@ def test_depth_position_and_indexes_are_cycles_under_the_default_filter(ext, tmp
     assert hit.sum() > 0.8 * 48 * 48 and np.array_equal(hit, ours["Depth"][..., 0] < 1e10)
     for name in ("Depth", "Position", "Object Index"):
         assert np.abs(ours[name] - cycles[name])[hit].max() < 1e-3, name
+
+
+def test_depth_position_and_indexes_stop_at_glass_as_in_cycles(ext, tmp_path):
+    """A glass ball in front of a glowing wall: Cycles writes the data passes at the ball's surface (glass is a
+    surface to them, not a hole), where the light passes through it."""
+    from test_glass_cycles import ball_blend
+
+    def numbered(scene):
+        for index, obj in enumerate(o for o in scene.objects if o.type == "MESH"):
+            obj.pass_index = index + 1
+    toggles = ("use_pass_z", "use_pass_position", "use_pass_object_index")
+    (cycles, _), (ours, _) = _render_both(tmp_path, 0.01, 4, toggles, ball_blend(tmp_path), numbered).values()
+    ball = np.abs(cycles["Depth"][..., 0] - 3.3) < 0.3  # the sphere's near side, 3 to 3.6 m: the wall is at 7 m
+    assert ball.sum() > 50
+    for name in ("Depth", "Position", "Object Index"):
+        assert np.abs(ours[name] - cycles[name]).max() < 1e-3, name
 
 
 def test_every_pass_switched_on_is_written_or_named_in_one_warning(ext, tmp_path):

@@ -131,6 +131,11 @@ def cases():
     yield "rough glass block turned inside out, IOR below 1, in view", with_triangles(
         base, box([0.2, 0.2, 0.3], [0.8, 0.8, 1.2], True), material=2, materials=Materials.make(
             [{"name": "w"}, {"name": "odd glass", "transmission": 1.0, "ior": 0.5, "roughness": 1.0}])), {}
+    yield "room of pure blue glass, 100 bounces", room(materials=materials(
+        transmission=1.0, ior=1.5, roughness=0.0, base_color=(0.0, 0.0, 1.0)), max_bounces=100), {}
+    yield "glass block of a faint red (1e-30) in view", with_triangles(
+        base, box([0.2, 0.2, 0.3], [0.8, 0.8, 1.2]), material=2, materials=Materials.make(
+            [{"name": "w"}, {"name": "faint glass", "transmission": 1.0, "base_color": (1e-30, 0.0, 0.0)}])), {}
     # lights
     yield "no light at all", room(lights=[]), {}
     yield "only world light (open box)", Scene.build(open_box, WHITE, [], outside, material=np.ones(10, int),

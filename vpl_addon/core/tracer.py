@@ -140,10 +140,17 @@ class Tracer:
         hits, _, heading = self._layers(origins, dirs, tmax, bend=True, tinted=True)
         return hits, heading
 
-    def _layers(self, origins, dirs, tmax, bend: bool, tinted: bool = False) -> tuple[Hits, np.ndarray, np.ndarray]:
-        """Closest hits through the holes and panes of ``cutouts``, which rays went through glass, and the
-        directions the rays end with (``dirs`` itself unless ``bend``). Only the rays that meet a cut-out triangle
-        carry the state of their last segment (its start, direction and the path's length there)."""
+    def intersect_first(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
+        """``intersect`` that stops at glass (``Cutouts.passes`` with ``solid_glass``): the first surface each
+        ray meets past the holes, as Cycles' data passes see it."""
+        return self._layers(origins, dirs, tmax, bend=False, solid_glass=True)[0]
+
+    def _layers(self, origins, dirs, tmax, bend: bool, tinted: bool = False,
+                solid_glass: bool = False) -> tuple[Hits, np.ndarray, np.ndarray]:
+        """Closest hits through the holes and panes of ``cutouts`` (``Cutouts.passes``' modes), which rays went
+        through glass, and the directions the rays end with (``dirs`` itself unless ``bend``). Only the rays that
+        meet a cut-out triangle carry the state of their last segment (its start, direction and the path's length
+        there)."""
         hits = self._closest(origins, dirs, tmax)
         crossed = np.zeros(len(origins), bool)
         if self.cutouts is None:
@@ -167,7 +174,7 @@ class Tracer:
                     break
             ng = self._face_normals()[hits.prim[todo]]
             on, glass, onward, weight = self.cutouts.passes(hits.prim[todo], hits.u[todo], hits.v[todo], d, ng, rng,
-                                                            bend, tinted)
+                                                            bend, tinted, solid_glass)
             crossed[todo[glass]] = True
             if weight is not None:
                 hits.tint[todo] *= weight

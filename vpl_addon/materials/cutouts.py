@@ -70,12 +70,13 @@ class Cutouts:
         return np.clip(np.nan_to_num(out, nan=1.0), 0.0, 1.0)
 
     def passes(self, prim: np.ndarray, u: np.ndarray, v: np.ndarray, d: np.ndarray, ng: np.ndarray,
-               rng: np.random.Generator, bend: bool = False, tinted: bool = False
+               rng: np.random.Generator, bend: bool = False, tinted: bool = False, solid_glass: bool = False
                ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray | None]:
         """(goes on (N,) bool, through glass (N,) bool, (N,3) the unit directions they go on with, (N,3) the colour
         weight of each or None) for rays of unit directions ``d`` hitting (prim, u, v) of geometric normals ``ng``:
         each goes on with probability 1 - alpha + alpha T (T of glass, 0 otherwise), through a hole straight. The
-        weight (``tinted`` rays, where some glass is coloured) is 1 but for the rays through coloured glass.
+        weight (``tinted`` rays, where some glass is coloured) is 1 but for the rays through coloured glass. With
+        ``solid_glass`` glass stops every ray (its holes do not): the first surface, as Cycles' data passes see it.
 
         Without ``bend`` a pane is a thin sheet: the ray goes on straight and T takes F at the IOR from either side.
         With ``bend`` the glass is a solid's surface, as Cycles' Glass BSDF renders it: the IOR is relative to the
@@ -88,7 +89,7 @@ class Cutouts:
         A Roughness map is read as its material's value."""
         alpha = self.opacity(prim, u, v)
         mat = self._scene.material[prim]
-        glass = np.nonzero(self._glass[mat])[0]
+        glass = np.nonzero(self._glass[mat])[0] if not solid_glass else np.zeros(0, np.int64)
         clear = np.zeros(len(prim))
         onward = np.array(d, np.float64)
         x = rng.random(len(prim))

@@ -5,7 +5,8 @@ As Cycles 5 writes them (measured on its passes):
   distance of its hit along the camera's view axis (1e10 where it misses), the hit point (0), the object's and the
   material's Pass Index (0). Cycles writes them at its sample 0, which falls on the pixel's centre: they are the same
   whatever the seed, Depth is exactly the view-axis distance of Position, and at a pixel whose samples partly miss
-  Depth is 1e10 and Position 0 while Normal is the covered share of a unit normal.
+  Depth is 1e10 and Position 0 while Normal is the covered share of a unit normal. The ray goes through holes and
+  stops at glass (Cycles writes data passes at the first surface that is not transparent).
 - ``Normal``: the mean over the pixel's samples of the shading normal (facing the ray's side, as Cycles flips back
   faces), misses counting zero; ``Denoising Normal`` the same in camera space (x right, y up, z forward: Cycles').
 - ``Mist``: one minus the mean over the samples of ``1 - m``, with ``m = clamp((d - start) / depth) ^ falloff`` for
@@ -61,7 +62,7 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
     camera_axis = -cam.to_world[:3, 2]
     centred = {P.DEPTH, P.POSITION, P.OBJECT_INDEX, P.MATERIAL_INDEX} & set(wanted)
     if centred:
-        _, hits = camera_hits(cam, tracer, gbuf.pixels % cam.width + 0.5, gbuf.pixels // cam.width + 0.5)
+        _, hits = camera_hits(cam, tracer, gbuf.pixels % cam.width + 0.5, gbuf.pixels // cam.width + 0.5, first=True)
         at, prim = np.nonzero(hits.hit)[0], hits.prim[hits.hit]
         u, v = hits.u[at], hits.v[at]
         point = interpolated(scene.triangles[prim], np.stack([1.0 - u - v, u, v], axis=1))

@@ -20,16 +20,20 @@ from ..core.sampling import group_sum, stratified_2d, stratified_4d
 from ..materials.surface import Surface, shade
 
 
-def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=None):
+def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=None, first: bool = False):
     """What the camera's rays through image positions (px, py) (and the lens's numbers ``lens``, ``Camera.rays``)
-    hit between the clip distances, refracted by the glass they pass (``Tracer.intersect_bent``), and the unit
-    direction each has there (or leaves with); given ``lights`` (a list), also (N,3) the radiance of the visible
-    lights each ray meets before its surface (``Light.seen``, along the ray as it leaves the camera). As in Cycles,
-    a light the camera sees adds its light to what is behind it and hides nothing."""
+    hit between the clip distances, refracted by the glass they pass (``Tracer.intersect_bent``; with ``first``
+    the first surface, glass included: ``Tracer.intersect_first``), and the unit direction each has there (or
+    leaves with); given ``lights`` (a list), also (N,3) the radiance of the visible lights each ray meets before its
+    surface (``Light.seen``, along the ray as it leaves the camera). As in Cycles, a light the camera sees adds its
+    light to what is behind it and hides nothing."""
     origins, dirs, near = cam.rays(px, py, lens)
     origins = origins + dirs * near[:, None]
     tmax = np.maximum(cam.clip_end - near, 0.0)
-    hits, heading = tracer.intersect_bent(origins, dirs, tmax=tmax)
+    if first:
+        hits, heading = tracer.intersect_first(origins, dirs, tmax=tmax), dirs
+    else:
+        hits, heading = tracer.intersect_bent(origins, dirs, tmax=tmax)
     if lights is None:
         return heading, hits
     lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, tmax)
