@@ -163,13 +163,13 @@ def test_camera_rays_refract_through_glass_as_snell_says_and_leave_a_slab_parall
     inside = np.arcsin(np.sin(theta) / 1.5)
     # one face: the ray goes on inside the glass at Snell's angle
     tracer = tracer_of(slab_scene(0.7, None))
-    hits, heading = tracer.intersect_bent(origins, d)
+    hits, heading, _ = tracer.intersect_bent(origins, d)
     down = np.nonzero((hits.prim >= 0) & (hits.prim < 2))[0]  # on the floor (a few stop at the face as a mirror)
     assert len(down) > 0.9 * k
     assert np.allclose(heading[down], [np.sin(inside), 0.0, -np.cos(inside)], atol=1e-9)
     # two faces: out again parallel to the camera's ray, shifted toward the normal by the slab's thickness
     tracer = tracer_of(slab_scene(0.7, 0.5))
-    hits, heading = tracer.intersect_bent(origins, d)
+    hits, heading, _ = tracer.intersect_bent(origins, d)
     down = np.nonzero((hits.prim >= 0) & (hits.prim < 2))[0]
     assert abs(len(down) / k - (1.0 - 0.0419) ** 2) < 0.02  # Fresnel at 30 degrees and at its refracted angle
     assert np.allclose(heading[down], d[0], atol=1e-9)
@@ -181,7 +181,7 @@ def test_camera_rays_refract_through_glass_as_snell_says_and_leave_a_slab_parall
     assert np.allclose(hits.t[down[once]], 1.8 / np.cos(theta) + 0.2 / np.cos(inside), atol=1e-3)
     # rough glass scatters the rays about Snell's direction
     tracer = tracer_of(slab_scene(0.7, None, roughness=0.4))
-    hits, heading = tracer.intersect_bent(origins, d)
+    hits, heading, _ = tracer.intersect_bent(origins, d)
     down = np.nonzero(hits.prim >= 0)[0]
     spread = np.degrees(np.arccos(np.clip(heading[down] @ [np.sin(inside), 0.0, -np.cos(inside)], -1.0, 1.0)))
     assert len(down) > 0.85 * k and np.median(spread) > 1.0 and np.median(spread) < 15.0
@@ -196,7 +196,7 @@ def test_from_inside_glass_past_the_critical_angle_a_ray_reflects_and_stays_insi
     steep = np.radians(50.0)  # above asin(1 / 1.5) = 41.8 degrees
     k = 500
     origins = np.tile([0.0, 0.0, 0.3], (k, 1))  # under the face, inside the glass it bounds
-    hits, heading = tracer.intersect_bent(origins, np.tile([np.sin(steep), 0.0, np.cos(steep)], (k, 1)))
+    hits, heading, _ = tracer.intersect_bent(origins, np.tile([np.sin(steep), 0.0, np.cos(steep)], (k, 1)))
     assert ((hits.prim >= 0) & (hits.prim < 2)).all()  # every ray turns back down to the floor
     assert np.allclose(heading, [np.sin(steep), 0.0, -np.cos(steep)])
     assert np.allclose(hits.t, 0.4 / np.cos(steep) + 0.7 / np.cos(steep), atol=1e-3)
@@ -227,7 +227,7 @@ def test_coloured_glass_colours_the_light_of_every_kind_of_ray_that_crosses_it()
     k = 20000
     stack = fence_scene(glass, layers=2)
     origins, d = np.tile([0.5, 0.5, 2.0], (k, 1)), np.tile([0.0, 0.0, -1.0], (k, 1))
-    hits, _ = tracer_of(stack).intersect_bent(origins, d)
+    hits, _, _ = tracer_of(stack).intersect_bent(origins, d)
     on_floor = hits.prim < 2
     assert abs(on_floor.mean() - clear ** 2) < 0.01 and np.allclose(hits.tint[on_floor], tint ** 2)
     assert np.allclose(hits.tint[hits.prim >= 4], 1.0)  # stopped at the first pane (z = 0.6): not through it
@@ -256,7 +256,7 @@ def test_the_g_buffer_shades_and_looks_up_the_world_along_the_refracted_rays():
     above[:3, 3] = (0.0, 0.0, 2.0)
     cam = Camera(above, 8, 8, view_window(8, 8, orthographic=False))
     px, py = np.repeat(np.array([0.5, 2.5, 7.5]), 200), np.repeat(np.array([0.5, 6.0, 4.0]), 200)
-    heading, hits, _ = camera_hits(cam, tracer_of(slab_scene(0.7, None)), px, py, lights=[])
+    heading, hits, _, _ = camera_hits(cam, tracer_of(slab_scene(0.7, None)), px, py, lights=[])
     _, d, _ = cam.rays(px, py)
     floor = np.nonzero(hits.prim < 2)[0]
     assert len(floor) > 0.9 * len(px) and np.abs(d[floor, :2]).max() > 0.2

@@ -142,7 +142,7 @@ def test_depth_position_and_indexes_are_cycles_under_the_default_filter(ext, tmp
         assert np.abs(ours[name] - cycles[name])[hit].max() < 1e-3, name
 
 
-def test_depth_position_and_indexes_stop_at_glass_as_in_cycles(ext, tmp_path):
+def test_data_passes_stop_at_glass_as_in_cycles(ext, tmp_path):
     """A glass ball in front of a glowing wall: Cycles writes the data passes at the ball's surface (glass is a
     surface to them, not a hole), where the light passes through it."""
     from test_glass_cycles import ball_blend
@@ -150,12 +150,15 @@ def test_depth_position_and_indexes_stop_at_glass_as_in_cycles(ext, tmp_path):
     def numbered(scene):
         for index, obj in enumerate(o for o in scene.objects if o.type == "MESH"):
             obj.pass_index = index + 1
-    toggles = ("use_pass_z", "use_pass_position", "use_pass_object_index")
+    toggles = ("use_pass_z", "use_pass_position", "use_pass_object_index", "use_pass_normal",
+               "use_pass_cryptomatte_object")
     (cycles, _), (ours, _) = _render_both(tmp_path, 0.01, 4, toggles, ball_blend(tmp_path), numbered).values()
     ball = np.abs(cycles["Depth"][..., 0] - 3.3) < 0.3  # the sphere's near side, 3 to 3.6 m: the wall is at 7 m
     assert ball.sum() > 50
-    for name in ("Depth", "Position", "Object Index"):
-        assert np.abs(ours[name] - cycles[name]).max() < 1e-3, name
+    for name, within in (("Depth", 1e-3), ("Position", 1e-3), ("Object Index", 0.0), ("CryptoObject00", 0.0),
+                         ("Normal", 0.01)):  # near the rim the sphere's normal turns 0.2 a pixel (filter 0.01 px)
+        assert np.abs(ours[name] - cycles[name]).max() <= within, name
+    assert ours["CryptoObject00"][ball, 1].min() == 1.0  # every sample there names the ball
 
 
 def test_every_pass_switched_on_is_written_or_named_in_one_warning(ext, tmp_path):

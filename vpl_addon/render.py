@@ -45,7 +45,7 @@ from .lights.direct import direct_light
 from .materials.cutouts import cutouts
 from .materials.microfacet import GlossyLobe
 from .methods import METHODS, MethodContext, MethodSettings, place
-from .paths.data_passes import Mist, data_passes
+from .paths.data_passes import Mist, data_passes, first_surfaces_needed
 from .paths.gbuffer import GBuffer
 from .paths.over_metal import over_metal
 
@@ -238,6 +238,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         guide_position, guide_normal = (np.zeros((2, w * h, 3), np.float32) if filtering else None for _ in range(2))
         guide_count = np.zeros((2, w * h), np.float32) if filtering else None
         data_wanted = want - set(P.ALL)
+        first_surfaces = first_surfaces_needed(data_wanted)
         starts = list(range(0, w * h, settings.block_pixels))
         timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
         cancelled = threading.Event()
@@ -266,7 +267,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             pixels = np.arange(starts[number], min(starts[number] + settings.block_pixels, w * h))
             rng = np.random.default_rng([settings.seed, number])
             marks = {"start": time.perf_counter()}
-            gbuf = GBuffer.build(scene, tracer, cam.frame_pixels(pixels), settings.samples, rng)
+            gbuf = GBuffer.build(scene, tracer, cam.frame_pixels(pixels), settings.samples, rng, first_surfaces)
             surf = gbuf.surface
             guard("G-buffer", {P.DIFFUSE_COLOR: surf.albedo, P.EMIT: surf.emission})
             lobe = GlossyLobe.of(surf) if need_glossy else None

@@ -133,12 +133,12 @@ class Tracer:
         hits, crossed, _ = self._layers(origins, dirs, tmax, bend=False, tinted=tinted)
         return hits, crossed
 
-    def intersect_bent(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray]:
+    def intersect_bent(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> tuple[Hits, np.ndarray, np.ndarray]:
         """``intersect`` (``tinted``) for rays that refract at glass as Cycles' camera rays do (``Cutouts.passes``
-        with ``bend``): their hits, ``t`` the length of the whole bent path, and (N,3) the unit direction each ray
-        has at its hit (or leaves the scene with)."""
-        hits, _, heading = self._layers(origins, dirs, tmax, bend=True, tinted=True)
-        return hits, heading
+        with ``bend``): their hits, ``t`` the length of the whole bent path, (N,3) the unit direction each ray has
+        at its hit (or leaves the scene with), and (N,) bool which rays crossed glass."""
+        hits, crossed, heading = self._layers(origins, dirs, tmax, bend=True, tinted=True)
+        return hits, heading, crossed
 
     def intersect_first(self, origins: np.ndarray, dirs: np.ndarray, tmax=FAR) -> Hits:
         """``intersect`` that stops at glass (``Cutouts.passes`` with ``solid_glass``): the first surface each

@@ -54,6 +54,12 @@ def cryptomatte_levels(wanted) -> dict[str, int]:
     return levels
 
 
+def first_surfaces_needed(wanted) -> bool:
+    """Whether the data passes among ``wanted`` take the G-buffer's samples at their first surface
+    (``GBuffer.build`` with ``first``)."""
+    return bool({P.NORMAL, P.MIST, P.AO} & set(wanted)) or bool(cryptomatte_levels(wanted))
+
+
 def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mist = Mist(),
                 ao_distance: float = 10.0) -> dict[str, np.ndarray]:
     """The data passes among ``wanted`` for the pixels of ``gbuf``: name -> (pixels, channels)."""
@@ -62,7 +68,7 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
     camera_axis = -cam.to_world[:3, 2]
     centred = {P.DEPTH, P.POSITION, P.OBJECT_INDEX, P.MATERIAL_INDEX} & set(wanted)
     if centred:
-        _, hits = camera_hits(cam, tracer, gbuf.pixels % cam.width + 0.5, gbuf.pixels // cam.width + 0.5, first=True)
+        hits = camera_hits(cam, tracer, gbuf.pixels % cam.width + 0.5, gbuf.pixels // cam.width + 0.5, first=True).hits
         at, prim = np.nonzero(hits.hit)[0], hits.prim[hits.hit]
         u, v = hits.u[at], hits.v[at]
         point = interpolated(scene.triangles[prim], np.stack([1.0 - u - v, u, v], axis=1))
@@ -73,13 +79,13 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
             if name in centred:
                 out[name] = np.full((count, P.CHANNELS[name]), empty)
                 out[name][at] = value().reshape(len(at), P.CHANNELS[name])
+    if P.DENOISING_NORMAL in wanted:  # through smooth glass, as Cycles' denoising data (its albedo too)
+        out[P.DENOISING_NORMAL] = gbuf.splat(surf.shading_normal) @ cam.to_world[:3, :3] * (1.0, 1.0, -1.0)
+    gbuf = gbuf.first_surfaces()
+    surf = gbuf.surface
     object_id = scene.object_id[surf.prim]
-    if P.NORMAL in wanted or P.DENOISING_NORMAL in wanted:
-        normal = gbuf.splat(surf.shading_normal)
-        if P.NORMAL in wanted:
-            out[P.NORMAL] = normal
-        if P.DENOISING_NORMAL in wanted:
-            out[P.DENOISING_NORMAL] = normal @ cam.to_world[:3, :3] * (1.0, 1.0, -1.0)
+    if P.NORMAL in wanted:
+        out[P.NORMAL] = gbuf.splat(surf.shading_normal)
     if P.MIST in wanted:
         offset = surf.position - cam.position
         distance = np.abs(dot(offset, camera_axis)) if cam.orthographic else np.linalg.norm(offset, axis=1)

@@ -12,30 +12,39 @@ colour passes take it, the data passes do not), as Cycles' throughput does.
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
 from ..core.sampling import group_sum, stratified_2d, stratified_4d
+from ..core.tracer import Hits
 from ..materials.surface import Surface, shade
 
 
-def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=None, first: bool = False):
+class CameraHits(NamedTuple):
+    heading: np.ndarray  # (N,3) the unit direction each ray has at its hit (or leaves the scene with)
+    hits: Hits
+    crossed: np.ndarray  # (N,) bool: which rays crossed glass on the way
+    lamp: np.ndarray | None  # (N,3) the radiance of the visible lights each meets before its surface
+
+
+def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=None,
+                first: bool = False) -> CameraHits:
     """What the camera's rays through image positions (px, py) (and the lens's numbers ``lens``, ``Camera.rays``)
     hit between the clip distances, refracted by the glass they pass (``Tracer.intersect_bent``; with ``first``
-    the first surface, glass included: ``Tracer.intersect_first``), and the unit direction each has there (or
-    leaves with); given ``lights`` (a list), also (N,3) the radiance of the visible lights each ray meets before its
-    surface (``Light.seen``, along the ray as it leaves the camera). As in Cycles, a light the camera sees adds its
-    light to what is behind it and hides nothing."""
+    the first surface, glass included: ``Tracer.intersect_first``); given ``lights`` (a list), also the radiance of
+    the visible lights each ray meets before its surface (``Light.seen``, along the ray as it leaves the camera). As
+    in Cycles, a light the camera sees adds its light to what is behind it and hides nothing."""
     origins, dirs, near = cam.rays(px, py, lens)
     origins = origins + dirs * near[:, None]
     tmax = np.maximum(cam.clip_end - near, 0.0)
     if first:
-        hits, heading = tracer.intersect_first(origins, dirs, tmax=tmax), dirs
+        hits, heading, crossed = tracer.intersect_first(origins, dirs, tmax=tmax), dirs, np.zeros(len(dirs), bool)
     else:
-        hits, heading = tracer.intersect_bent(origins, dirs, tmax=tmax)
+        hits, heading, crossed = tracer.intersect_bent(origins, dirs, tmax=tmax)
     if lights is None:
-        return heading, hits
+        return CameraHits(heading, hits, crossed, None)
     lamp, far = np.zeros((len(dirs), 3)), np.where(hits.hit, hits.t, tmax)
     for light in lights:
         found = light.seen(origins, dirs)
@@ -44,7 +53,7 @@ def camera_hits(cam, tracer, px: np.ndarray, py: np.ndarray, lights=None, lens=N
         t, radiance = found
         seen = (t > 0.0) & ((t < far) | (np.isinf(t) & ~hits.hit))  # a sun where the ray reaches the sky
         lamp[seen] += radiance[seen]
-    return heading, hits, lamp
+    return CameraHits(heading, hits, crossed, lamp)
 
 
 @dataclass
@@ -59,9 +68,16 @@ class GBuffer:
     lamp_radiance: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))  # (L,3) what they see of it
     tint: np.ndarray | None = None  # (K,3) what coloured glass leaves of each hit's light; None: no such glass
     miss_tint: np.ndarray | None = None  # (M,3) the same for the misses
+    # the samples whose first surface is not where their light comes from (glass they crossed), as ``sample`` and
+    # ``surface`` with those samples' first surfaces instead: what the data passes see (``first_surfaces``)
+    first_sample: np.ndarray | None = None
+    first_surface: Surface | None = None
 
     @staticmethod
-    def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator) -> "GBuffer":
+    def build(scene, tracer, pixels: np.ndarray, spp: int, rng: np.random.Generator,
+              first: bool = False) -> "GBuffer":
+        """The G-buffer of ``pixels``; with ``first``, also the first surfaces of the samples that crossed glass
+        (``first_surfaces``)."""
         cam = scene.camera
         pixels = np.asarray(pixels, np.int64)
         lens = None
@@ -72,14 +88,35 @@ class GBuffer:
         pix = np.repeat(pixels, spp)
         px = (pix % cam.width) + 0.5 + cam.filter_offsets(u.ravel())
         py = (pix // cam.width) + 0.5 + cam.filter_offsets(v.ravel())
-        dirs, hits, lamp = camera_hits(cam, tracer, px, py, [light for light in scene.lights if light.visible], lens)
+        dirs, hits, crossed, lamp = camera_hits(cam, tracer, px, py, [light for light in scene.lights if light.visible],
+                                                lens)
         sample = np.nonzero(hits.hit)[0]
         on_lamp = np.nonzero((lamp > 0.0).any(axis=1))[0]
         missed = np.nonzero(~hits.hit)[0]
         tint = (None, None) if hits.tint is None else (hits.tint[sample], hits.tint[missed])
-        return GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
+        gbuf = GBuffer(pixels=pixels, spp=spp, sample=sample, surface=shade(scene, dirs, hits, sample),
                        missed=missed, miss_direction=dirs[missed], on_lamp=on_lamp, lamp_radiance=lamp[on_lamp],
                        tint=tint[0], miss_tint=tint[1])
+        rows = np.nonzero(crossed)[0]
+        if first and len(rows):  # the same rays again, stopping at the glass
+            ahead = camera_hits(cam, tracer, px[rows], py[rows], lens=None if lens is None else
+                                [numbers[rows] for numbers in lens], first=True)
+            kept = sample[~np.isin(sample, rows)]  # the hits of the rays that crossed no glass
+            found = np.nonzero(ahead.hits.hit)[0]
+            index = np.concatenate([kept, rows[found]])
+            order = np.argsort(index, kind="stable")
+            gbuf.first_sample = index[order]
+            gbuf.first_surface = Surface.concat([gbuf.surface.take(np.searchsorted(sample, kept)),
+                                                 shade(scene, ahead.heading, ahead.hits, found)]).take(order)
+        return gbuf
+
+    def first_surfaces(self) -> "GBuffer":
+        """This G-buffer as the data passes see it: each sample at the first surface it meets, glass included (as
+        Cycles writes them), with no tint."""
+        if self.first_sample is None:
+            return self if self.tint is None else replace(self, tint=None)
+        return replace(self, sample=self.first_sample, surface=self.first_surface, tint=None, first_sample=None,
+                       first_surface=None)
 
     def __len__(self):
         return len(self.sample)
