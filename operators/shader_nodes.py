@@ -18,13 +18,14 @@ reroutes and into and out of node groups. Anything else keeps the input's value,
 material, the input and the node.
 
 Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass and Emission shaders; a Mix Shader
-with a Transparent BSDF is an alpha cut-out of the other shader, an Add Shader of an Emission shader makes the other
-glow; other mixes and sums render their heavier (first) shader, with a warning. A Holdout shader renders black (its
-warning comes from ``unsupported``). Glass keeps as its Base Color the colour light keeps crossing one of its faces
-(``materials.cutouts``): the Glass BSDF's Color, the square root of the Principled BSDF's Base Color (Cycles tints
-each crossing of Principled glass so, and a closed solid by its Base Color; measured in Blender 5.0: a slab of Base
-Color (0.25, 0.5, 1) passes (0.231, 0.461, 0.925) = (1 - F)^2 x Base Color, a Glass BSDF slab of that Color its
-square, (0.058, 0.229, 0.920)).
+with a Transparent BSDF is an alpha cut-out of the other shader, one of a Diffuse and a Glossy BSDF by a constant
+factor or by a Fresnel (or Layer Weight) curve their two lobes so weighted (``_diffuse_and_glossy``), an Add Shader of
+an Emission shader makes the other glow; other mixes and sums render their heavier (first) shader, with a warning.
+A Holdout shader renders black (its warning comes from ``unsupported``). Glass keeps as its Base Color the colour
+light keeps crossing one of its faces (``materials.cutouts``): the Glass BSDF's Color, the square root of the
+Principled BSDF's Base Color (Cycles tints each crossing of Principled glass so, and a closed solid by its Base
+Color; measured in Blender 5.0: a slab of Base Color (0.25, 0.5, 1) passes (0.231, 0.461, 0.925) = (1 - F)^2 x
+Base Color, a Glass BSDF slab of that Color its square, (0.058, 0.229, 0.920)).
 """
 from __future__ import annotations
 
@@ -141,6 +142,21 @@ def _value(socket):
 def _same(a, b) -> bool:
     """Whether two socket wrappers are the same socket (bpy makes a new wrapper at every access)."""
     return a.as_pointer() == b.as_pointer()
+
+
+def _fresnel_ior(socket) -> float | None:
+    """The IOR of the Fresnel curve feeding ``socket``: a Fresnel node's Fac (its IOR), a Layer Weight's Fresnel
+    (1 / (1 - Blend), Cycles' ``svm_node_layer_weight``), each with a constant input and its own normal; None for
+    anything else."""
+    source = _source(socket)
+    if source is None or _source(source.node.inputs["Normal"]) is not None:
+        return None
+    if source.node.type == "FRESNEL" and _constant(source.node.inputs["IOR"]) is not None:
+        return max(float(_constant(source.node.inputs["IOR"])), 1.0)
+    if source.node.type == "LAYER_WEIGHT" and source.name == "Fresnel" and \
+            _constant(source.node.inputs["Blend"]) is not None:
+        return 1.0 / max(1.0 - float(_constant(source.node.inputs["Blend"])), 1e-5)
+    return None
 
 
 def _constant(socket):
@@ -485,6 +501,10 @@ class MaterialTable:
             if tmap is not None:
                 row.setdefault("maps", {})["alpha"] = tmap
             return row
+        if sorted(str(getattr(s, "type", None)) for s in shaders) == ["BSDF_DIFFUSE", "BSDF_GLOSSY"]:
+            mixed = self._diffuse_and_glossy(material, fac, shaders, row)
+            if mixed is not None:
+                return mixed
         value = _constant(fac)
         weight = 0.5 if value is None else float(np.clip(value, 0.0, 1.0))
         kept = shaders[1] if weight > 0.5 else shaders[0]
@@ -497,6 +517,39 @@ class MaterialTable:
                                  f"{'second' if weight > 0.5 else 'first'} shader {kept.bl_label!r} alone "
                                  f"(factor {'linked' if value is None else f'{value:g}'})")
         return self._shader(material, kept, row)
+
+    def _diffuse_and_glossy(self, material, fac, shaders, row: dict) -> dict | None:
+        """A Mix Shader of a Diffuse and a Glossy BSDF as one material, or None for a factor it does not read: the
+        Diffuse's colour (and maps, normal) with a metallic lobe of the Glossy's colour (``Materials.metal_color``,
+        with the tint that gives its Fresnel that mean, as ``_glossy``) and roughness, weighted by the constant
+        factor f (the second shader's weight), which is Cycles' (1 - f) Diffuse + f Glossy, or at each point by the
+        Fresnel curve of a Fresnel node's Fac or a Layer Weight's Fresnel (IOR 1 / (1 - Blend), as Cycles computes
+        it) into the Glossy's side (``Materials.fresnel_mix``: F(N . I) as Cycles' mix). (A Principled dielectric
+        layer of that IOR instead is 20 % brighter than Cycles' mix at grazing views, as Cycles' own Principled BSDF
+        is.)"""
+        glossy_second = shaders[1].type == "BSDF_GLOSSY"
+        diffuse, glossy = (shaders[0], shaders[1]) if glossy_second else (shaders[1], shaders[0])
+        value, ior = _constant(fac), None
+        if value is None:
+            ior = _fresnel_ior(fac)
+            if ior is None or not glossy_second:
+                return None
+        gloss = self._glossy(material, glossy, {"name": row["name"]})
+        row = self._shader(material, diffuse, row)
+        row["roughness"] = gloss["roughness"]
+        maps = gloss.get("maps", {})
+        if "roughness" in maps:
+            row.setdefault("maps", {})["roughness"] = maps["roughness"]
+        if "base_color" in maps:
+            self.warnings.append(f"material {material.name!r}: the linked Color of {glossy.bl_label!r} "
+                                 f"({glossy.name}) mixed with a Diffuse BSDF is read as its value")
+        row["metal_color"], row["specular_tint"] = gloss["base_color"], gloss["specular_tint"]
+        if ior is None:
+            weight = float(np.clip(value, 0.0, 1.0))
+            row["metallic"] = weight if glossy_second else 1.0 - weight
+        else:
+            row["metallic"], row["fresnel_mix"] = 0.0, ior
+        return row
 
     def _add(self, material, node, row: dict) -> dict:
         """An Add Shader of an Emission shader and a surface is that surface glowing (its emission added); two

@@ -235,31 +235,58 @@ def test_glossy_mix_and_add_shaders(bpy):
         links.new(emission.outputs[0], add.inputs[1])
         return add.outputs[0]
 
-    def blend(nodes, links):  # two BSDFs: the heavier stands, with a warning
-        mix = nodes.new("ShaderNodeMixShader")
-        mix.inputs[0].default_value = 0.8
-        links.new(nodes.new("ShaderNodeBsdfDiffuse").outputs[0], mix.inputs[1])
-        links.new(glossy(nodes, links).node.outputs[0], mix.inputs[2])
-        return mix.outputs[0]
+    def mixed(first, factor=0.8):
+        """A Mix Shader of ``first`` (a node type) and the Glossy BSDF above by ``factor``: a number, or a factor
+        node type whose first output feeds it (a Fresnel of IOR 1.6, a Layer Weight's Fresnel of Blend 0.3)."""
+        def build(nodes, links):
+            mix = nodes.new("ShaderNodeMixShader")
+            if isinstance(factor, str):
+                curve = nodes.new(factor)
+                curve.inputs[0].default_value = 1.6 if factor == "ShaderNodeFresnel" else 0.3
+                links.new(curve.outputs[0], mix.inputs[0])
+            else:
+                mix.inputs[0].default_value = factor
+            under = nodes.new(first)
+            under.inputs[0].default_value = (0.2, 0.4, 0.6, 1)
+            links.new(under.outputs[0], mix.inputs[1])
+            links.new(glossy(nodes, links).node.outputs[0], mix.inputs[2])
+            return mix.outputs[0]
+        return build
 
-    for k, (name, build) in enumerate((("Glossy", glossy), ("Leaf", leaf), ("Veil", veil), ("Glow", glow),
-                                       ("Blend", blend))):
+    cases = {"Glossy": glossy, "Leaf": leaf, "Veil": veil, "Glow": glow,
+             "Blend": mixed("ShaderNodeBsdfDiffuse"),  # Diffuse and Glossy: a metallic lobe of the mix's weight
+             "Sheen": mixed("ShaderNodeBsdfDiffuse", "ShaderNodeFresnel"),  # by Fresnel: a dielectric layer
+             "Layered": mixed("ShaderNodeBsdfDiffuse", "ShaderNodeLayerWeight"),
+             "Other": mixed("ShaderNodeBsdfPrincipled")}  # two other BSDFs: the heavier stands, with a warning
+    for k, (name, build) in enumerate(cases.items()):
         obj = add_mesh(bpy, name, [(0, 0, k), (1, 0, k), (0, 1, k)], [(0, 1, 2)],
                        material=surface_material(bpy, name, build))
         obj.data.uv_layers.new(name="UVMap")
     scene, warnings = extracted(bpy)
     m = scene.materials
-    ids = {name: m.names.index(name) for name in ("Glossy", "Leaf", "Veil", "Glow", "Blend")}
-    for name in ("Glossy", "Blend"):
+    ids = {name: m.names.index(name) for name in cases}
+    for name in ("Glossy", "Other"):
         i = ids[name]
         assert m.metallic[i] == 1.0 and m.roughness[i] == pytest.approx(0.3)
         assert m.base_color[i] == pytest.approx((0.9, 0.5, 0.1))
         assert (m.specular_tint[i] < 1).all() and m.specular_tint[i][0] > m.specular_tint[i][2]
+    for name in ("Blend", "Sheen", "Layered"):  # the Diffuse's colour, the Glossy's roughness
+        i = ids[name]
+        assert m.base_color[i] == pytest.approx((0.2, 0.4, 0.6)) and m.roughness[i] == pytest.approx(0.3)
+    blend, glossy_row = ids["Blend"], ids["Glossy"]
+    assert m.metallic[blend] == pytest.approx(0.8) and m.metal_color[blend] == pytest.approx((0.9, 0.5, 0.1))
+    assert m.specular_tint[blend] == pytest.approx(m.specular_tint[glossy_row]) and m.specular[blend] == 0.0
+    assert (m.metal_color[[i for i, name in enumerate(m.names) if name not in ("Blend", "Sheen", "Layered")]] < 0).all()
+    for name, ior in (("Sheen", 1.6), ("Layered", 1.0 / 0.7)):  # weighted by F(N . I) of that IOR
+        i = ids[name]
+        assert m.fresnel_mix[i] == pytest.approx(ior) and m.metal_color[i] == pytest.approx((0.9, 0.5, 0.1))
+        assert m.specular[i] == 0.0
+    assert m.fresnel_mix[blend] == 0.0
     alpha = m.maps[m.mapped("alpha")[ids["Leaf"]]]
     assert alpha.channel == 3 and m.metallic[ids["Leaf"]] == 0.0
     assert m.alpha[ids["Veil"]] == pytest.approx(0.3) and m.mapped("alpha")[ids["Veil"]] < 0
     assert m.emission[ids["Glow"]] == pytest.approx((4.0, 2.0, 1.0)) and m.base_color[ids["Glow"]] == pytest.approx(0.3)
-    assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Blend'", "Mix Shader", "Glossy"))
+    assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Other'", "Mix Shader", "Glossy"))
 
 
 def test_bump_nodes_and_unrendered_layers(bpy):

@@ -131,6 +131,11 @@ def cases():
     yield "rough glass block turned inside out, IOR below 1, in view", with_triangles(
         base, box([0.2, 0.2, 0.3], [0.8, 0.8, 1.2], True), material=2, materials=Materials.make(
             [{"name": "w"}, {"name": "odd glass", "transmission": 1.0, "ior": 0.5, "roughness": 1.0}])), {}
+    yield "diffuse and glossy mixed by a Fresnel of IOR 1e6, metal colour NaN, 2, -1", room(materials=materials(
+        fresnel_mix=1e6, metal_color=(np.nan, 2.0, -1.0), roughness=0.0)), {}
+    yield "diffuse and glossy mixed by a Fresnel of NaN IOR and a white metal, 100 bounces", room(
+        materials=materials(fresnel_mix=np.nan, metal_color=(1.0, 1.0, 1.0), base_color=(1.0, 1.0, 1.0)),
+        max_bounces=100), {}
     yield "room of pure blue glass, 100 bounces", room(materials=materials(
         transmission=1.0, ior=1.5, roughness=0.0, base_color=(0.0, 0.0, 1.0)), max_bounces=100), {}
     yield "glass block of a faint red (1e-30) in view", with_triangles(

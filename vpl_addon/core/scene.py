@@ -70,6 +70,13 @@ class Materials:
     map_of: dict[str, np.ndarray] = field(default_factory=dict)  # input -> (M,) int index into maps, -1 none
     transmission: np.ndarray | None = None  # (M,) Transmission Weight (Glass BSDF: 1); None: 0 everywhere
     pass_index: np.ndarray | None = None  # (M,) int Pass Index (the Material Index pass); None: 0 everywhere
+    # (M,3) F0 of the metallic lobe where it is not the Base Color (a Mix Shader of a Diffuse and a Glossy BSDF:
+    # the Glossy's Color), negative where it is; None: every material's is its Base Color
+    metal_color: np.ndarray | None = None
+    # (M,) the IOR of the Fresnel curve that weighs the metallic lobe against the rest at each point instead of
+    # Metallic (such a Mix Shader by a Fresnel or a Layer Weight node: Cycles' F(N . I)), 0 where Metallic does;
+    # None: 0 everywhere
+    fresnel_mix: np.ndarray | None = None
 
     def __post_init__(self):
         if self.transmission is None:
@@ -86,7 +93,7 @@ class Materials:
     @staticmethod
     def make(rows: list[dict]) -> "Materials":
         """Rows of {name, base_color, roughness, metallic, emission, specular_tint, ior, specular, alpha,
-        transmission, pass_index, maps}
+        transmission, pass_index, metal_color, fresnel_mix, maps}
         (``maps``: input name -> TextureMap; ``texture``: an image index for Base Color alone); missing keys take
         defaults: a grey diffuse without a specular layer."""
         rows = [{"name": "default_surface"}] + list(rows)  # Cycles' name of its fallback (in Cryptomatte)
@@ -120,6 +127,12 @@ class Materials:
             transmission=col("transmission", 0.0),
             pass_index=col("pass_index", 0, np.int32),
         )
+        own = np.array(["metal_color" in r for r in rows])
+        if own.any():
+            metal = np.clip(np.nan_to_num(col("metal_color", (0.0, 0.0, 0.0)).reshape(-1, 3)), 0.0, 1.0)
+            m.metal_color = np.where(own[:, None], metal, np.float32(-1.0))
+        if any("fresnel_mix" in r for r in rows):
+            m.fresnel_mix = np.clip(np.nan_to_num(col("fresnel_mix", 0.0), nan=0.0, posinf=0.0), 0.0, 1e3)
         for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha,
                   m.transmission):
             np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
@@ -149,7 +162,8 @@ class Materials:
         """Whether any material has a glossy (GGX) lobe, metallic or the dielectric specular layer: without one,
         nothing glossy is computed."""
         return bool((self.metallic > 0.0).any() | (self.mapped("metallic") >= 0).any()
-                    | ((self.specular > 0.0) & (self.ior != 1.0)).any() | self.glass.any())
+                    | ((self.specular > 0.0) & (self.ior != 1.0)).any() | self.glass.any()
+                    | (self.fresnel_mix is not None and (self.fresnel_mix > 0.0).any()))
 
 
 @dataclass

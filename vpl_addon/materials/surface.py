@@ -22,7 +22,7 @@ from ..core.color import largest
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take, take_fields
-from .microfacet import edge, layer_albedo, smith_g1, specular_layer
+from .microfacet import dielectric_fresnel, edge, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
 
 ROUGH_COAT = 0.5  # Roughness from which a dielectric layer counts as a rough coat (``Surface.rough_coat``)
@@ -87,10 +87,19 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     incident = dirs[rows]
     smooth, normal = np.empty((len(prim), 3)), np.empty((len(prim), 3))
     _turned(incident, ng, ns, inputs["normal"], smooth, normal)  # toward the ray after the normal map, as Cycles
+    if m.fresnel_mix is not None:  # Metallic as F(N . I) of a mix's Fresnel curve (``Materials.fresnel_mix``)
+        curved = np.nonzero(m.fresnel_mix[mat] > 0.0)[0]
+        if len(curved):
+            inputs["metallic"][curved] = dielectric_fresnel(np.clip(-dot(smooth[curved], incident[curved]), 0.0, 1.0),
+                                                            m.fresnel_mix[mat[curved]].astype(np.float64))
     f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
     base, metallic, eta = inputs["base_color"], inputs["metallic"], eta[mat]
+    metal = base  # the metallic lobe's F0: the Base Color, or a material's own (``Materials.metal_color``)
+    if m.metal_color is not None and (m.metal_color[mat, 0] >= 0.0).any():
+        metal = np.where(m.metal_color[mat] >= 0.0, m.metal_color[mat], base)
     edges, dielectric, below = (np.empty((len(prim), 3)) for _ in range(3))
-    _lobes(mat, m.specular_tint.astype(np.float64), f0, m.glass, base, metallic, eta, edges, dielectric, below)
+    _lobes(mat, m.specular_tint.astype(np.float64), f0, m.glass, base, metal, metallic, eta, edges, dielectric,
+           below)
     layered = np.nonzero(eta != 1.0)[0]
     if len(layered):
         mu = np.clip(-dot(normal[layered], incident[layered]), 0.0, 1.0)
@@ -98,7 +107,7 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
         below[layered] *= np.clip(1.0 - largest(a), 0.0, 1.0)[:, None]
     return Surface(position=position, geometric_normal=ng, shading_normal=normal, prim=prim, material=mat,
                    albedo=below, roughness=inputs["roughness"], metallic=metallic, emission=inputs["emission"],
-                   specular=base, edge=edges, dielectric=dielectric, eta=eta, incident=incident, smooth_normal=smooth)
+                   specular=metal, edge=edges, dielectric=dielectric, eta=eta, incident=incident, smooth_normal=smooth)
 
 
 @kernel
@@ -115,11 +124,12 @@ def _turned(incident, ng, ns, mapped, smooth, normal):
 
 
 @kernel
-def _lobes(mat, tint, f0, glass, base, metallic, eta, edges, dielectric, below):
+def _lobes(mat, tint, f0, glass, base, metal, metallic, eta, edges, dielectric, below):
     """The Principled BSDF's lobes per point from its material ``mat``'s Specular Tint, layer F0 and glass flag
-    and its (textured) Base Color and Metallic: Base Color clamped to [0, 1] (in place), F82's ``edges``, the
-    layer's F0 x tint (``dielectric``) and the diffuse albedo before the layer takes its share (``below``). A ray
-    stopped by a pane (``cutouts``) sees a white mirror: Base Color, Metallic and tint 1, no layer (``eta`` 1)."""
+    and its (textured) Base Color, metallic F0 (``metal``: the Base Color itself or its own) and Metallic: Base
+    Color and metallic F0 clamped to [0, 1] (in place), F82's ``edges``, the layer's F0 x tint (``dielectric``) and
+    the diffuse albedo before the layer takes its share (``below``). A ray stopped by a pane (``cutouts``) sees a
+    white mirror: metallic F0, Metallic and tint 1, no layer (``eta`` 1)."""
     for i in range(len(mat)):
         j = mat[i]
         f, pane = f0[j], glass[j]
@@ -128,7 +138,9 @@ def _lobes(mat, tint, f0, glass, base, metallic, eta, edges, dielectric, below):
         for c in range(3):
             b, t = 1.0 if pane else min(max(base[i, c], 0.0), 1.0), 1.0 if pane else tint[j, c]
             base[i, c] = b
-            edges[i, c] = edge(b, t)
+            s = 1.0 if pane else min(max(metal[i, c], 0.0), 1.0)
+            metal[i, c] = s
+            edges[i, c] = edge(s, t)
             dielectric[i, c] = f * t
             below[i, c] = (1.0 - metallic[i]) * b
 

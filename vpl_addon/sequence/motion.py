@@ -66,6 +66,8 @@ class Snapshot:
         maps = np.frombuffer(repr(m.maps).encode(), np.uint8)  # the same text in every process (not hash())
         shading = _digest(m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.ior, m.specular,
                           m.alpha, m.transmission, maps, *m.map_of.values(), np.asarray(scene.world),
+                          *(() if m.metal_color is None else (m.metal_color,)),
+                          *(() if m.fresnel_mix is None else (m.fresnel_mix,)),
                           np.array([scene.max_bounces]), *scene.textures, scene.uvs,
                           *(() if scene.tangents is None else (scene.tangents,)),
                           *(() if scene.colors is None else (scene.colors,)),

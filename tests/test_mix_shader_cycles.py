@@ -1,0 +1,69 @@
+"""A Mix Shader of a Diffuse and a Glossy BSDF, the way Blender materials were built before the Principled BSDF
+(and still are in many scenes), against Cycles: by a constant factor, and by a Fresnel node
+(``operators.shader_nodes``: a metallic lobe of the Glossy's colour, or a dielectric layer, over the Diffuse). A
+floor of each under a panel light and a grey sky, direct light only (a plane lights nothing of itself)."""
+import numpy as np
+import pytest
+
+from conftest import add_mesh, combined_against_cycles, surface_material
+
+pytestmark = pytest.mark.blender
+
+
+def floor_blend(tmp_path, mixed: bool):
+    """Two floor halves, left Mix(Diffuse red, Glossy white of Roughness 0.2, 0.3), right the same of a green
+    Diffuse by a Fresnel of IOR 1.5, a 4 x 1 m area light at their back, a sky of 0.2; with ``mixed`` False both
+    halves are their Diffuse alone (as the engine read such a mix before: its heavier side)."""
+    import bpy
+    bpy.ops.wm.read_factory_settings(use_empty=True)
+    scene = bpy.context.scene
+    scene.render.resolution_x, scene.render.resolution_y = 48, 32
+
+    def mix(colour, factor):
+        def build(nodes, links):
+            diffuse = nodes.new("ShaderNodeBsdfDiffuse")
+            diffuse.inputs["Color"].default_value = (*colour, 1.0)
+            if not mixed:
+                return diffuse.outputs[0]
+            glossy = nodes.new("ShaderNodeBsdfGlossy")
+            glossy.inputs["Roughness"].default_value = 0.2
+            node = nodes.new("ShaderNodeMixShader")
+            if factor == "fresnel":
+                fresnel = nodes.new("ShaderNodeFresnel")
+                fresnel.inputs["IOR"].default_value = 1.5
+                links.new(fresnel.outputs[0], node.inputs[0])
+            else:
+                node.inputs[0].default_value = factor
+            links.new(diffuse.outputs[0], node.inputs[1])
+            links.new(glossy.outputs[0], node.inputs[2])
+            return node.outputs[0]
+        return build
+    left = surface_material(bpy, "Constant", mix((0.8, 0.1, 0.1), 0.3))
+    right = surface_material(bpy, "Fresnel", mix((0.1, 0.6, 0.1), "fresnel"))
+    add_mesh(bpy, "Left", [(-3, -3, 0), (0, -3, 0), (0, 3, 0), (-3, 3, 0)], [(0, 1, 2, 3)], left)
+    add_mesh(bpy, "Right", [(0, -3, 0), (3, -3, 0), (3, 3, 0), (0, 3, 0)], [(0, 1, 2, 3)], right)
+    panel = bpy.data.lights.new("Panel", "AREA")
+    panel.shape, panel.size, panel.size_y, panel.energy = "RECTANGLE", 4.0, 1.0, 400.0
+    lamp = bpy.data.objects.new("Panel", panel)
+    lamp.location, lamp.rotation_euler = (0.0, 3.0, 0.8), (np.radians(-90.0), 0.0, 0.0)  # facing -y, the floor
+    scene.collection.objects.link(lamp)
+    cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
+    cam.location, cam.rotation_euler = (0.0, -4.0, 1.5), (np.radians(72.0), 0.0, 0.0)
+    scene.collection.objects.link(cam)
+    scene.camera = cam
+    world = bpy.data.worlds.new("World")
+    world.color = (0.2, 0.2, 0.2)
+    scene.world = world
+    path = tmp_path / f"floor-{mixed}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def test_a_mix_of_diffuse_and_glossy_renders_as_in_cycles(ext, tmp_path):
+    e_ours, e_diffuse, e_cycles = combined_against_cycles(floor_blend(tmp_path, True), floor_blend(tmp_path, False),
+                                                          tmp_path)
+    print(f"Mix(Diffuse, Glossy) floors: Combined rMAE ours {e_ours['rmae']:.4f} (mean ratio "
+          f"{e_ours['mean_ratio']:.4f}), the Diffuse alone {e_diffuse['rmae']:.4f}, Cycles 64 spp "
+          f"{e_cycles['rmae']:.4f}")
+    assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.02 and abs(e_ours["mean_ratio"] - 1.0) < 0.03
+    assert e_diffuse["rmae"] > 2.0 * e_ours["rmae"]
