@@ -1,19 +1,19 @@
 """A Mix Shader of a Diffuse and a Glossy BSDF, the way Blender materials were built before the Principled BSDF
 (and still are in many scenes), against Cycles: by a constant factor, and by a Fresnel node
 (``operators.shader_nodes``: a metallic lobe of the Glossy's colour, or a dielectric layer, over the Diffuse). A
-floor of each under a panel light and a grey sky, direct light only (a plane lights nothing of itself)."""
+floor of each under a glowing panel and a grey sky, direct light only (a plane lights nothing of itself)."""
 import numpy as np
 import pytest
 
-from conftest import add_mesh, combined_against_cycles, surface_material
+from conftest import add_mesh, combined_against_cycles, shader_material, surface_material
 
 pytestmark = pytest.mark.blender
 
 
 def floor_blend(tmp_path, mixed: bool):
     """Two floor halves, left Mix(Diffuse red, Glossy white of Roughness 0.2, 0.3), right the same of a green
-    Diffuse by a Fresnel of IOR 1.5, a 4 x 1 m area light at their back, a sky of 0.2; with ``mixed`` False both
-    halves are their Diffuse alone (as the engine read such a mix before: its heavier side)."""
+    Diffuse by a Fresnel of IOR 1.5, a 4 x 1 m panel glowing 100 / pi at their back, a sky of 0.2; with ``mixed``
+    False both halves are their Diffuse alone (as the engine read such a mix before: its heavier side)."""
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
@@ -42,11 +42,9 @@ def floor_blend(tmp_path, mixed: bool):
     right = surface_material(bpy, "Fresnel", mix((0.1, 0.6, 0.1), "fresnel"))
     add_mesh(bpy, "Left", [(-3, -3, 0), (0, -3, 0), (0, 3, 0), (-3, 3, 0)], [(0, 1, 2, 3)], left)
     add_mesh(bpy, "Right", [(0, -3, 0), (3, -3, 0), (3, 3, 0), (0, 3, 0)], [(0, 1, 2, 3)], right)
-    panel = bpy.data.lights.new("Panel", "AREA")
-    panel.shape, panel.size, panel.size_y, panel.energy = "RECTANGLE", 4.0, 1.0, 400.0
-    lamp = bpy.data.objects.new("Panel", panel)
-    lamp.location, lamp.rotation_euler = (0.0, 3.0, 0.8), (np.radians(-90.0), 0.0, 0.0)  # facing -y, the floor
-    scene.collection.objects.link(lamp)
+    glow = shader_material(bpy, "Glow", "ShaderNodeEmission",
+                           {"Color": (1.0, 1.0, 1.0, 1.0), "Strength": 100.0 / np.pi})
+    add_mesh(bpy, "Panel", [(-2, 3, 0.3), (2, 3, 0.3), (2, 3, 1.3), (-2, 3, 1.3)], [(0, 3, 2, 1)], glow)
     cam = bpy.data.objects.new("Camera", bpy.data.cameras.new("Camera"))
     cam.location, cam.rotation_euler = (0.0, -4.0, 1.5), (np.radians(72.0), 0.0, 0.0)
     scene.collection.objects.link(cam)
@@ -60,9 +58,12 @@ def floor_blend(tmp_path, mixed: bool):
 
 
 def test_a_mix_of_diffuse_and_glossy_renders_as_in_cycles(ext, tmp_path):
+    """The glossy lobes' highlight of the glowing panel needs the lobe's own samples weighed against the panel's
+    light samples (``EmissiveTriangles.mis``): with light samples alone ours was 0.143 here (under an area light of
+    the panel's size and power, where it had them, 0.042 against Cycles' 0.060)."""
     e_ours, e_diffuse, e_cycles = combined_against_cycles(floor_blend(tmp_path, True), floor_blend(tmp_path, False),
                                                           tmp_path)
-    print(f"Mix(Diffuse, Glossy) floors: Combined rMAE ours {e_ours['rmae']:.4f} (mean ratio "
+    print(f"Mix(Diffuse, Glossy) floors under a glowing panel: Combined rMAE ours {e_ours['rmae']:.4f} (mean ratio "
           f"{e_ours['mean_ratio']:.4f}), the Diffuse alone {e_diffuse['rmae']:.4f}, Cycles 64 spp "
           f"{e_cycles['rmae']:.4f}")
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.02 and abs(e_ours["mean_ratio"] - 1.0) < 0.03

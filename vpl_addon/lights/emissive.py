@@ -1,14 +1,21 @@
 """Emissive meshes as one light: radiance = Emission Color x Strength, emitted from both sides of every
 triangle whose material emits. Where an image drives Emission Color, a triangle emits the image's mean over it
 (``MAP_POINTS`` stratified points), so a mesh with a mostly black emission texture lights the scene only where the
-texture glows."""
+texture glows.
+
+For the glossy lobe's multiple importance sampling (``lights.direct``) the light says what a direction finds of it
+(``mis``): the nearest of its triangles along the ray, in a BVH of its own, and the pdf with which its sampling
+draws that direction, p(triangle) / Omega."""
 from __future__ import annotations
+
+import threading
 
 import numpy as np
 
 from ..core.color import LUMINANCE, largest
 from ..core.compiled import inline, kernel
 from ..core.sampling import cosine_hemisphere, sample_cdf, triangle_barycentrics
+from ..core.tracer import Tracer
 from ..materials.textures import at_points
 from .light import Light
 
@@ -32,6 +39,7 @@ class EmissiveTriangles(Light):
         self.total = float(weight.sum())
         self.cdf = np.cumsum(weight) / self.total if self.total > 0 else np.ones(len(weight))
         self.prob = weight / self.total if self.total > 0 else np.zeros(len(weight))
+        self._tracer, self._building = None, threading.Lock()
 
     @staticmethod
     def from_scene(scene) -> "EmissiveTriangles | None":
@@ -67,6 +75,22 @@ class EmissiveTriangles(Light):
         _triangle_samples(np.asarray(p, np.float64), idx, self.triangles, self.normals, self.radiance, self.prob,
                           u1r, np.asarray(u2, np.float64), wi, dist, weight)
         return wi, dist, weight, self.normals[idx]
+
+    def mis(self, p, n, w):
+        """(distance, radiance, pdf) of the nearest of the triangles along each ray from p along w
+        (``Light.mis``): its radiance (the mean ``_sample_incident`` weighs) and p(triangle) / Omega, the pdf of
+        drawing w toward it; 0 where the ray meets none (or only the triangle it leaves, nearer than
+        1e-6 of the light's size)."""
+        with self._building:
+            if self._tracer is None:
+                self._tracer, self._size = Tracer(self.triangles, threads=1), self.bounds()[1]
+        hits = self._tracer.intersect(p, w)
+        rows = np.nonzero(hits.hit & (hits.t > 1e-6 * self._size))[0]
+        dist, radiance, pdf = np.full(len(p), np.inf), np.zeros((len(p), 3)), np.zeros(len(p))
+        idx = hits.prim[rows]
+        dist[rows], radiance[rows] = hits.t[rows], self.radiance[idx]
+        _triangle_pdfs(np.asarray(p, np.float64)[rows], idx, self.triangles, self.prob, pdf, rows)
+        return dist, radiance, pdf
 
     def emit(self, count, rng, center, radius):
         idx = sample_cdf(self.cdf, rng.random(count))
@@ -123,6 +147,19 @@ def _triangle_samples(p, idx, triangles, normals, radiance, prob, u1, u2, wi, di
         dist[i] = d
         for c in range(3):
             weight[i, c] = solid / prob[t] * radiance[t, c]
+
+
+@kernel
+def _triangle_pdfs(p, idx, triangles, prob, pdf, rows):
+    """pdf[rows[i]] = prob / Omega of triangle idx[i] seen from p[i]: the solid-angle pdf with which
+    ``_triangle_samples`` draws a direction toward it (0 where Omega is 0)."""
+    for i in range(len(idx)):
+        t = idx[i]
+        q0 = (triangles[t, 0, 0] - p[i, 0], triangles[t, 0, 1] - p[i, 1], triangles[t, 0, 2] - p[i, 2])
+        q1 = (triangles[t, 1, 0] - p[i, 0], triangles[t, 1, 1] - p[i, 1], triangles[t, 1, 2] - p[i, 2])
+        q2 = (triangles[t, 2, 0] - p[i, 0], triangles[t, 2, 1] - p[i, 1], triangles[t, 2, 2] - p[i, 2])
+        solid = _spherical_triangle(q0, q1, q2, 0.5, 0.5)[0]
+        pdf[rows[i]] = prob[t] / solid if solid > 0.0 else 0.0
 
 
 @inline
