@@ -158,7 +158,7 @@ def _triangle_pdfs(p, idx, triangles, prob, pdf, rows):
         q0 = (triangles[t, 0, 0] - p[i, 0], triangles[t, 0, 1] - p[i, 1], triangles[t, 0, 2] - p[i, 2])
         q1 = (triangles[t, 1, 0] - p[i, 0], triangles[t, 1, 1] - p[i, 1], triangles[t, 1, 2] - p[i, 2])
         q2 = (triangles[t, 2, 0] - p[i, 0], triangles[t, 2, 1] - p[i, 1], triangles[t, 2, 2] - p[i, 2])
-        solid = _spherical_triangle(q0, q1, q2, 0.5, 0.5)[0]
+        solid = _subtended(q0, q1, q2)
         pdf[rows[i]] = prob[t] / solid if solid > 0.0 else 0.0
 
 
@@ -210,11 +210,7 @@ def _spherical_triangle(q0, q1, q2, u1, u2):
     solid = _solid_angle(a, b, c)
     if not solid > np.pi:
         return solid, _arvo(a, b, c, solid, u1, u2)
-    e1, e2 = (q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]), (q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2])
-    n, _ = _unit(_cross(e1, e2))
-    height = _dot(q0, n)
-    f, _ = _unit((height * n[0], height * n[1], height * n[2]))  # toward the foot
-    s0, s1, s2 = _solid_angle(f, a, b), _solid_angle(f, b, c), _solid_angle(f, c, a)
+    f, s0, s1, s2 = _split_at_foot(q0, q1, q2, a, b, c)
     total = s0 + s1 + s2
     x = u1 * total
     if x < s0:
@@ -222,6 +218,30 @@ def _spherical_triangle(q0, q1, q2, u1, u2):
     if x < s0 + s1:
         return total, _arvo(b, f, c, s1, (x - s0) / s1, u2)
     return total, _arvo(c, f, a, s2, min((x - s0 - s1) / max(s2, 1e-300), 1.0), u2)
+
+
+@inline
+def _split_at_foot(q0, q1, q2, a, b, c):
+    """The unit direction f toward the foot of the origin on the plane of the triangle q0, q1, q2 (unit corners a,
+    b, c), and the solid angles of the three triangles (f, a, b), (f, b, c), (f, c, a) it cuts the triangle into."""
+    e1, e2 = (q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]), (q2[0] - q0[0], q2[1] - q0[1], q2[2] - q0[2])
+    n, _ = _unit(_cross(e1, e2))
+    height = _dot(q0, n)
+    f, _ = _unit((height * n[0], height * n[1], height * n[2]))
+    return f, _solid_angle(f, a, b), _solid_angle(f, b, c), _solid_angle(f, c, a)
+
+
+@inline
+def _subtended(q0, q1, q2):
+    """The solid angle of the triangle q0, q1, q2 seen from the origin, as ``_spherical_triangle`` computes it."""
+    a, _ = _unit(q0)
+    b, _ = _unit(q1)
+    c, _ = _unit(q2)
+    solid = _solid_angle(a, b, c)
+    if not solid > np.pi:
+        return solid
+    _, s0, s1, s2 = _split_at_foot(q0, q1, q2, a, b, c)
+    return s0 + s1 + s2
 
 
 @inline
