@@ -4,7 +4,7 @@ BSDF samples that pass the pane (its shadow rays stop at glass), so it counts th
 does the engine (``materials.cutouts``: shadow rays through glass report it). And a smooth glass ball (Principled BSDF,
 Transmission Weight 1) in front of a wall glowing red on its left and green on its right: a ball lens shows the wall
 turned over, as Cycles renders it (the camera's rays refract). Coloured glass colours the light that crosses it as
-in Cycles: the sun through a green pane, and stripes seen through a coloured slab."""
+in Cycles: the sun through the window's pane, which is green, and stripes seen through a coloured slab."""
 import numpy as np
 import pytest
 
@@ -61,10 +61,16 @@ def ours_and_cycles(blend, tmp_path, samples: int, reference_samples: int, *opti
 
 
 def test_the_sun_through_a_glass_pane_lights_the_room_as_in_cycles(ext, tmp_path):
-    found = pass_errors(*ours_and_cycles(window_blend(tmp_path), tmp_path, 16, 1024), "Diffuse Indirect")
+    """The pane a Glass BSDF of Color (0.3, 0.9, 0.5): the light through it takes that colour at each of its two
+    faces (times 1 - F at each), in each channel within 10 % of Cycles' (a grey pane gave 1.035 of its mean)."""
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    paths = ours_and_cycles(window_blend(tmp_path, (0.3, 0.9, 0.5)), tmp_path, 16, 1024)
+    found = pass_errors(*paths, "Diffuse Indirect")
+    a, b = (read_passes(str(p))[0]["Diffuse Indirect"][..., :3].reshape(-1, 3).mean(axis=0) for p in paths)
     print(f"window: Diffuse Indirect ratio {found['mean_ratio']:.3f} rMAE {found['rmae']:.3f} (Cycles' caustic "
-          f"through the pane is noise at 1024 spp; the mean is the measure)")
-    assert abs(found["mean_ratio"] - 1.0) <= 0.10
+          f"through the pane is noise at 1024 spp; the mean is the measure); by channel ours {a}, Cycles {b}")
+    assert np.allclose(a / b, 1.0, atol=0.1)
+    assert b[0] < 0.5 * b[1]  # green light
 
 
 def principled_glass(bpy, roughness: float, distribution: str = "MULTI_GGX", colour=(1.0, 1.0, 1.0)):
@@ -149,21 +155,13 @@ def test_rough_glass_blurs_what_lies_behind_it_as_cycles_does(ext, tmp_path):
     assert e_smooth["rmae"] > 2.0 * e_ours["rmae"]  # sharp stripes where Cycles blurs them
 
 
-def test_coloured_glass_colours_what_is_seen_and_lit_through_it_as_in_cycles(ext, tmp_path):
+def test_a_coloured_slab_colours_what_is_seen_through_it_as_in_cycles(ext, tmp_path):
     """A Principled slab of Base Color (0.25, 0.5, 1) in front of white stripes passes (1 - F)^2 x Base Color, as
-    Cycles (a closed solid takes its Base Color: the square root at each face), and the sun through a Glass BSDF
-    pane of Color (0.3, 0.9, 0.5) lights the floor with that colour (times 1 - F, at each of the pane's faces)."""
+    Cycles (a closed solid takes its Base Color: the square root at each face)."""
     from vpl_gi.vpl_addon.core.exr import read_passes
-
-    def means(paths, name):
-        return (read_passes(str(p))[0][name][..., :3].reshape(-1, 3).mean(axis=0) for p in paths)
     slab = frosted_blend(tmp_path, 0.0, (0.25, 0.5, 1.0))
-    a, b = means(ours_and_cycles(slab, tmp_path, 16, 64, "--method", "none"), "Combined")
+    a, b = (read_passes(str(p))[0]["Combined"][..., :3].reshape(-1, 3).mean(axis=0)
+            for p in ours_and_cycles(slab, tmp_path, 16, 64, "--method", "none"))
     print(f"through a coloured slab: ours {a}, Cycles {b}")
     assert np.allclose(a / b, 1.0, atol=0.02)
     assert b[0] < 0.3 * b[2] and b[1] < 0.6 * b[2]  # the slab's colour, not grey
-    window = window_blend(tmp_path, (0.3, 0.9, 0.5))
-    a, b = means(ours_and_cycles(window, tmp_path, 16, 1024), "Diffuse Indirect")
-    print(f"the sun through a coloured pane, Diffuse Indirect: ours {a}, Cycles {b}")
-    assert np.allclose(a / b, 1.0, atol=0.1)
-    assert b[0] < 0.5 * b[1]  # green light
