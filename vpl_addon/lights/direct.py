@@ -13,7 +13,7 @@ The metallic lobe's light combines the light samples with as many samples of the
 importance sampling (Veach and Guibas 1995, the power heuristic), per light: a sharp lobe inside a light's solid
 angle is found by its own samples, where light samples alone gave f cos / pdf of 10^4 and more (single samples
 that the filter spread into squares). Lights that cannot evaluate their pdf for a given direction (``Light.mis``
-None: points, spots, suns, emissive meshes) keep light samples alone.
+None: points, spots, suns) keep light samples alone.
 """
 from __future__ import annotations
 
