@@ -19,10 +19,10 @@ material, the input and the node.
 
 Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass and Emission shaders; a Mix Shader
 with a Transparent BSDF is an alpha cut-out of the other shader, one of a Diffuse and a Glossy BSDF by a constant
-factor or by a Fresnel (or Layer Weight) curve their two lobes so weighted (``_diffuse_and_glossy``), an Add Shader of
-an Emission shader makes the other glow; other mixes and sums render their heavier (first) shader, with a warning.
-A Holdout shader renders black (its warning comes from ``unsupported``). Glass keeps as its Base Color the colour
-light keeps crossing one of its faces (``materials.cutouts``): the Glass BSDF's Color, the square root of the
+factor, an image or a Fresnel (or Layer Weight) curve their two lobes so weighted (``_diffuse_and_glossy``), an Add
+Shader of an Emission shader makes the other glow; other mixes and sums render their heavier (first) shader, with a
+warning. A Holdout shader renders black (its warning comes from ``unsupported``). Glass keeps as its Base Color the
+colour light keeps crossing one of its faces (``materials.cutouts``): the Glass BSDF's Color, the square root of the
 Principled BSDF's Base Color (Cycles tints each crossing of Principled glass so, and a closed solid by its Base
 Color; measured in Blender 5.0: a slab of Base Color (0.25, 0.5, 1) passes (0.231, 0.461, 0.925) = (1 - F)^2 x
 Base Color, a Glass BSDF slab of that Color its square, (0.058, 0.229, 0.920)).
@@ -149,7 +149,8 @@ def _fresnel_ior(socket) -> float | None:
     (1 / (1 - Blend), Cycles' ``svm_node_layer_weight``), each with a constant input and its own normal; None for
     anything else."""
     source = _source(socket)
-    if source is None or _source(source.node.inputs["Normal"]) is not None:
+    if source is None or source.node.type not in ("FRESNEL", "LAYER_WEIGHT") or \
+            _source(source.node.inputs["Normal"]) is not None:
         return None
     if source.node.type == "FRESNEL" and _constant(source.node.inputs["IOR"]) is not None:
         return max(float(_constant(source.node.inputs["IOR"])), 1.0)
@@ -522,18 +523,22 @@ class MaterialTable:
         """A Mix Shader of a Diffuse and a Glossy BSDF as one material, or None for a factor it does not read: the
         Diffuse's colour (and maps, normal) with a metallic lobe of the Glossy's colour (``Materials.metal_color``,
         with the tint that gives its Fresnel that mean, as ``_glossy``) and roughness, weighted by the constant
-        factor f (the second shader's weight), which is Cycles' (1 - f) Diffuse + f Glossy, or at each point by the
-        Fresnel curve of a Fresnel node's Fac or a Layer Weight's Fresnel (IOR 1 / (1 - Blend), as Cycles computes
-        it) into the Glossy's side (``Materials.fresnel_mix``: F(N . I) as Cycles' mix). (A Principled dielectric
+        factor f (the second shader's weight), which is Cycles' (1 - f) Diffuse + f Glossy, or into the Glossy's side
+        by an image (a mask: the metallic lobe's map) or at each point by the Fresnel curve of a Fresnel node's Fac
+        or a Layer Weight's Fresnel (IOR 1 / (1 - Blend), as Cycles computes it; ``Materials.fresnel_mix``: F(N . I)
+        as Cycles' mix). (A Principled dielectric
         layer of that IOR instead is 20 % brighter than Cycles' mix at grazing views, as Cycles' own Principled BSDF
         is.)"""
         glossy_second = shaders[1].type == "BSDF_GLOSSY"
         diffuse, glossy = (shaders[0], shaders[1]) if glossy_second else (shaders[1], shaders[0])
-        value, ior = _constant(fac), None
+        value, ior, mask = _constant(fac), None, None
         if value is None:
-            ior = _fresnel_ior(fac)
-            if ior is None or not glossy_second:
+            if not glossy_second:
                 return None
+            ior = _fresnel_ior(fac)
+            if ior is None:  # an image (a mask) weighs the Glossy: the metallic lobe's map
+                mask = self._map(material, "Fac", fac)
+                value = _value(fac) if mask is None else 1.0  # the factor's own value when the chain is not read
         gloss = self._glossy(material, glossy, {"name": row["name"]})
         row = self._shader(material, diffuse, row)
         row["roughness"] = gloss["roughness"]
@@ -549,6 +554,8 @@ class MaterialTable:
             row["metallic"] = weight if glossy_second else 1.0 - weight
         else:
             row["metallic"], row["fresnel_mix"] = 0.0, ior
+        if mask is not None:
+            row.setdefault("maps", {})["metallic"] = mask
         return row
 
     def _add(self, material, node, row: dict) -> dict:
