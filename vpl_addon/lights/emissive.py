@@ -79,13 +79,14 @@ class EmissiveTriangles(Light):
     def mis(self, p, n, w):
         """(distance, radiance, pdf) of the nearest of the triangles along each ray from p along w
         (``Light.mis``): its radiance (the mean ``_sample_incident`` weighs) and p(triangle) / Omega, the pdf of
-        drawing w toward it; 0 where the ray meets none (or only the triangle it leaves, nearer than
-        1e-6 of the light's size)."""
+        drawing w toward it; 0 where the ray meets none. The rays leave p pushed off its surface along n, to the
+        side w leaves by (``Tracer.offset_origin``), so a point of a glowing surface does not find itself."""
         with self._building:
             if self._tracer is None:
-                self._tracer, self._size = Tracer(self.triangles, threads=1), self.bounds()[1]
-        hits = self._tracer.intersect(p, w)
-        rows = np.nonzero(hits.hit & (hits.t > 1e-6 * self._size))[0]
+                self._tracer = Tracer(self.triangles, threads=1)
+        side = np.where((np.einsum("ij,ij->i", n, w) >= 0.0)[:, None], n, -n)
+        hits = self._tracer.intersect(self._tracer.offset_origin(p, side), w)
+        rows = np.nonzero(hits.hit)[0]
         dist, radiance, pdf = np.full(len(p), np.inf), np.zeros((len(p), 3)), np.zeros(len(p))
         idx = hits.prim[rows]
         dist[rows], radiance[rows] = hits.t[rows], self.radiance[idx]
