@@ -19,7 +19,8 @@ material, the input and the node.
 
 Shaders: the Principled, Diffuse, Glossy (as the metallic lobe), Glass and Emission shaders; a Mix Shader
 with a Transparent BSDF is an alpha cut-out of the other shader, one of a Diffuse and a Glossy BSDF by a constant
-factor, an image or a Fresnel (or Layer Weight) curve their two lobes so weighted (``_diffuse_and_glossy``), an Add
+factor, an image or a Fresnel (or Layer Weight) curve their two lobes so weighted (``_diffuse_and_glossy``), one of
+two other opaque shaders by a constant factor or an image their inputs blended at each point (``_blended``), an Add
 Shader of an Emission shader makes the other glow; other mixes and sums render their heavier (first) shader, with a
 warning. A Holdout shader renders black (its warning comes from ``unsupported``). Glass keeps as its Base Color the
 colour light keeps crossing one of its faces (``materials.cutouts``): the Glass BSDF's Color, the square root of the
@@ -142,6 +143,15 @@ def _value(socket):
 def _same(a, b) -> bool:
     """Whether two socket wrappers are the same socket (bpy makes a new wrapper at every access)."""
     return a.as_pointer() == b.as_pointer()
+
+
+def _plain(row: dict) -> bool:
+    """Whether a material row can be one side of a blended Mix Shader (``MaterialTable._blended``): opaque, not
+    glass, not glowing, and not itself a mix."""
+    maps = row.get("maps", {})
+    return row.get("transmission", 0.0) < 0.5 and row.get("alpha", 1.0) >= 1.0 and "alpha" not in maps and \
+        not any(row.get("emission", ())) and "emission" not in maps and \
+        not {"metal_color", "fresnel_mix", "mix_other"} & set(row)
 
 
 def _fresnel_ior(socket) -> float | None:
@@ -279,7 +289,11 @@ class MaterialTable:
         return self.index[key]
 
     def normal_mapped(self, material_id: int) -> bool:
-        return material_id > 0 and "normal" in self.rows[material_id - 1].get("maps", {})
+        """Whether the material (or the second shader of its Mix Shader) reads a normal map."""
+        if material_id <= 0:
+            return False
+        row = self.rows[material_id - 1]
+        return "normal" in row.get("maps", {}) or self.normal_mapped(row.get("mix_other", 0))
 
     def build(self) -> Materials:
         return Materials.make(self.rows)
@@ -507,6 +521,10 @@ class MaterialTable:
             if mixed is not None:
                 return mixed
         value = _constant(fac)
+        if None not in shaders and (value is None or 0.0 < value < 1.0):
+            mixed = self._blended(material, node, fac, value, shaders, row)
+            if mixed is not None:
+                return mixed
         weight = 0.5 if value is None else float(np.clip(value, 0.0, 1.0))
         kept = shaders[1] if weight > 0.5 else shaders[0]
         if kept is None:
@@ -518,6 +536,27 @@ class MaterialTable:
                                  f"{'second' if weight > 0.5 else 'first'} shader {kept.bl_label!r} alone "
                                  f"(factor {'linked' if value is None else f'{value:g}'})")
         return self._shader(material, kept, row)
+
+    def _blended(self, material, node, fac, value, shaders, row: dict) -> dict | None:
+        """A Mix Shader of two opaque shaders that neither glow nor mix further, by a constant factor or an image
+        (a mask): the first shader's row, blended at each point with a row of the second (appended to the table,
+        ``Materials.mix_other``) by the factor (``surface._blend``). None (and no trace of having read the two
+        shaders) when a side is not such a shader. A factor from a chain the engine does not read takes the
+        factor's own value (with ``_map``'s warning)."""
+        mask, warned, held = None, len(self.warnings), len(self.holdouts)
+        if value is None:
+            mask = self._map(material, "Fac", fac)
+            value = 1.0 if mask is not None else float(np.clip(_value(fac), 0.0, 1.0))
+        first = self._shader(material, shaders[0], {"name": row["name"]})
+        second = self._shader(material, shaders[1], {"name": f"{row['name']} ({node.name}: second shader)"})
+        if not (_plain(first) and _plain(second)):
+            del self.warnings[warned:], self.holdouts[held:]
+            return None
+        self.rows.append(second)
+        first["mix_other"], first["mix_factor"] = len(self.rows), value
+        if mask is not None:
+            first.setdefault("maps", {})["mix"] = mask
+        return first
 
     def _diffuse_and_glossy(self, material, fac, shaders, row: dict) -> dict | None:
         """A Mix Shader of a Diffuse and a Glossy BSDF as one material, or None for a factor it does not read: the

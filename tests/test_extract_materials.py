@@ -235,21 +235,25 @@ def test_glossy_mix_and_add_shaders(bpy):
         links.new(emission.outputs[0], add.inputs[1])
         return add.outputs[0]
 
-    def mixed(first, factor=0.8):
-        """A Mix Shader of ``first`` (a node type) and the Glossy BSDF above by ``factor``: a number, or a factor
-        node type whose first output feeds it (a Fresnel of IOR 1.6, a Layer Weight's Fresnel of Blend 0.3)."""
+    def mixed(first, factor=0.8, second=None):
+        """A Mix Shader of ``first`` (a node type) and ``second`` (the Glossy BSDF above when None) by ``factor``:
+        a number, or a factor node type whose first output feeds it (a Fresnel of IOR 1.6, a Layer Weight's Fresnel
+        of Blend 0.3, an image)."""
         def build(nodes, links):
             mix = nodes.new("ShaderNodeMixShader")
             if isinstance(factor, str):
                 curve = nodes.new(factor)
-                curve.inputs[0].default_value = 1.6 if factor == "ShaderNodeFresnel" else 0.3
+                if factor == "ShaderNodeTexImage":
+                    curve.image = _image(bpy, "mask", [[0, 0, 0, 1], [1, 1, 1, 1]])
+                else:
+                    curve.inputs[0].default_value = 1.6 if factor == "ShaderNodeFresnel" else 0.3
                 links.new(curve.outputs[0], mix.inputs[0])
             else:
                 mix.inputs[0].default_value = factor
             under = nodes.new(first)
             under.inputs[0].default_value = (0.2, 0.4, 0.6, 1)
             links.new(under.outputs[0], mix.inputs[1])
-            links.new(glossy(nodes, links).node.outputs[0], mix.inputs[2])
+            links.new((glossy(nodes, links).node if second is None else nodes.new(second)).outputs[0], mix.inputs[2])
             return mix.outputs[0]
         return build
 
@@ -257,7 +261,9 @@ def test_glossy_mix_and_add_shaders(bpy):
              "Blend": mixed("ShaderNodeBsdfDiffuse"),  # Diffuse and Glossy: a metallic lobe of the mix's weight
              "Sheen": mixed("ShaderNodeBsdfDiffuse", "ShaderNodeFresnel"),  # by Fresnel: a dielectric layer
              "Layered": mixed("ShaderNodeBsdfDiffuse", "ShaderNodeLayerWeight"),
-             "Other": mixed("ShaderNodeBsdfPrincipled")}  # two other BSDFs: the heavier stands, with a warning
+             "Other": mixed("ShaderNodeBsdfPrincipled"),  # two other BSDFs: blended by the factor
+             "Masked": mixed("ShaderNodeBsdfPrincipled", "ShaderNodeTexImage"),  # ... or by an image
+             "Lit": mixed("ShaderNodeBsdfPrincipled", 0.8, "ShaderNodeEmission")}  # a glow: the heavier stands
     for k, (name, build) in enumerate(cases.items()):
         obj = add_mesh(bpy, name, [(0, 0, k), (1, 0, k), (0, 1, k)], [(0, 1, 2)],
                        material=surface_material(bpy, name, build))
@@ -265,8 +271,14 @@ def test_glossy_mix_and_add_shaders(bpy):
     scene, warnings = extracted(bpy)
     m = scene.materials
     ids = {name: m.names.index(name) for name in cases}
-    for name in ("Glossy", "Other"):
-        i = ids[name]
+    second = {name: m.mix_other[ids[name]] for name in ("Other", "Masked")}
+    assert m.names[second["Other"]] == "Other (Mix Shader: second shader)"
+    assert m.mix_factor[ids["Other"]] == pytest.approx(0.8)
+    assert m.mix_factor[ids["Masked"]] == 1.0 and m.mapped("mix")[ids["Masked"]] >= 0
+    assert (m.mix_other[[i for i in range(len(m.names)) if i not in (ids["Other"], ids["Masked"])]] < 0).all()
+    for name in ("Other", "Masked"):  # the first row the Principled BSDF's, the second the Glossy's
+        assert m.base_color[ids[name]] == pytest.approx((0.2, 0.4, 0.6)) and m.metallic[ids[name]] == 0.0
+    for i in (ids["Glossy"], *second.values()):
         assert m.metallic[i] == 1.0 and m.roughness[i] == pytest.approx(0.3)
         assert m.base_color[i] == pytest.approx((0.9, 0.5, 0.1))
         assert (m.specular_tint[i] < 1).all() and m.specular_tint[i][0] > m.specular_tint[i][2]
@@ -277,6 +289,7 @@ def test_glossy_mix_and_add_shaders(bpy):
     assert m.metallic[blend] == pytest.approx(0.8) and m.metal_color[blend] == pytest.approx((0.9, 0.5, 0.1))
     assert m.specular_tint[blend] == pytest.approx(m.specular_tint[glossy_row]) and m.specular[blend] == 0.0
     assert (m.metal_color[[i for i, name in enumerate(m.names) if name not in ("Blend", "Sheen", "Layered")]] < 0).all()
+    assert m.emission[ids["Lit"]].max() > 0.0 and m.mix_other[ids["Lit"]] < 0
     for name, ior in (("Sheen", 1.6), ("Layered", 1.0 / 0.7)):  # weighted by F(N . I) of that IOR
         i = ids[name]
         assert m.fresnel_mix[i] == pytest.approx(ior) and m.metal_color[i] == pytest.approx((0.9, 0.5, 0.1))
@@ -286,7 +299,7 @@ def test_glossy_mix_and_add_shaders(bpy):
     assert alpha.channel == 3 and m.metallic[ids["Leaf"]] == 0.0
     assert m.alpha[ids["Veil"]] == pytest.approx(0.3) and m.mapped("alpha")[ids["Veil"]] < 0
     assert m.emission[ids["Glow"]] == pytest.approx((4.0, 2.0, 1.0)) and m.base_color[ids["Glow"]] == pytest.approx(0.3)
-    assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Other'", "Mix Shader", "Glossy"))
+    assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Lit'", "Mix Shader", "Emission"))
 
 
 def test_bump_nodes_and_unrendered_layers(bpy):

@@ -1,14 +1,32 @@
 """A Mix Shader of a Diffuse and a Glossy BSDF, the way Blender materials were built before the Principled BSDF
-(and still are in many scenes), against Cycles: by a constant factor, a checker mask and a Fresnel node
-(``operators.shader_nodes``: a metallic lobe of the Glossy's colour over the Diffuse, weighted by the factor, a
-mask or the Fresnel curve). A floor of each under a glowing panel and a grey sky, direct light only (a plane lights
-nothing of itself)."""
+(and still are in many scenes), and of two Principled BSDFs, against Cycles: by a constant factor, a checker mask
+and a Fresnel node (``operators.shader_nodes``: a metallic lobe of the Glossy's colour over the Diffuse, weighted by
+the factor, the mask or the Fresnel curve; two other shaders' inputs blended by the factor or the mask). Floor
+strips of each under a glowing panel and a grey sky, direct light only (a plane lights nothing of itself)."""
 import numpy as np
 import pytest
 
 from conftest import add_mesh, combined_against_cycles, shader_material, surface_material
 
 pytestmark = pytest.mark.blender
+
+
+def mix_node(nodes, links, factor):
+    """A Mix Shader node whose factor is a number, "fresnel" (a Fresnel node of IOR 1.5) or "checker" (a Checker
+    Texture of the UVs, scale 8)."""
+    node = nodes.new("ShaderNodeMixShader")
+    if factor == "fresnel":
+        fresnel = nodes.new("ShaderNodeFresnel")
+        fresnel.inputs["IOR"].default_value = 1.5
+        links.new(fresnel.outputs[0], node.inputs[0])
+    elif factor == "checker":
+        checker, coordinates = nodes.new("ShaderNodeTexChecker"), nodes.new("ShaderNodeTexCoord")
+        checker.inputs["Scale"].default_value = 8.0
+        links.new(coordinates.outputs["UV"], checker.inputs["Vector"])
+        links.new(checker.outputs["Fac"], node.inputs[0])
+    else:
+        node.inputs[0].default_value = factor
+    return node
 
 
 def floor_blend(tmp_path, mixed: bool):
@@ -29,18 +47,7 @@ def floor_blend(tmp_path, mixed: bool):
                 return diffuse.outputs[0]
             glossy = nodes.new("ShaderNodeBsdfGlossy")
             glossy.inputs["Roughness"].default_value = 0.2
-            node = nodes.new("ShaderNodeMixShader")
-            if factor == "fresnel":
-                fresnel = nodes.new("ShaderNodeFresnel")
-                fresnel.inputs["IOR"].default_value = 1.5
-                links.new(fresnel.outputs[0], node.inputs[0])
-            elif factor == "checker":
-                checker, coordinates = nodes.new("ShaderNodeTexChecker"), nodes.new("ShaderNodeTexCoord")
-                checker.inputs["Scale"].default_value = 8.0
-                links.new(coordinates.outputs["UV"], checker.inputs["Vector"])
-                links.new(checker.outputs["Fac"], node.inputs[0])
-            else:
-                node.inputs[0].default_value = factor
+            node = mix_node(nodes, links, factor)
             links.new(diffuse.outputs[0], node.inputs[1])
             links.new(glossy.outputs[0], node.inputs[2])
             return node.outputs[0]
@@ -76,3 +83,43 @@ def test_a_mix_of_diffuse_and_glossy_renders_as_in_cycles(ext, tmp_path):
           f"{e_cycles['rmae']:.4f}")
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.02 and abs(e_ours["mean_ratio"] - 1.0) < 0.03
     assert e_diffuse["rmae"] > 2.0 * e_ours["rmae"]
+
+
+def pair_blend(tmp_path, mixed: bool):
+    """Two floor strips of a Mix Shader of two Principled BSDFs, a red one of Roughness 0.2 and a blue one of
+    Roughness 0.6: left by a checker of UVs (a mask: each point one or the other), right by a constant 0.4; the
+    glowing panel and sky of ``floor_blend``. With ``mixed`` False the strips are the red one alone (as the engine
+    read such a mix before: its heavier side, the first)."""
+    import bpy
+    blend = floor_blend(tmp_path, False)
+    bpy.ops.wm.open_mainfile(filepath=str(blend))
+
+    def pair(factor):
+        def build(nodes, links):
+            red, blue = nodes.new("ShaderNodeBsdfPrincipled"), nodes.new("ShaderNodeBsdfPrincipled")
+            red.inputs["Base Color"].default_value, red.inputs["Roughness"].default_value = (0.8, 0.1, 0.1, 1), 0.2
+            blue.inputs["Base Color"].default_value, blue.inputs["Roughness"].default_value = (0.1, 0.2, 0.8, 1), 0.6
+            if not mixed:
+                return red.outputs[0]
+            node = mix_node(nodes, links, factor)
+            links.new(red.outputs[0], node.inputs[1])
+            links.new(blue.outputs[0], node.inputs[2])
+            return node.outputs[0]
+        return build
+    for name, factor in (("Constant", 0.4), ("Masked", "checker")):
+        bpy.data.objects[name].data.materials[0] = surface_material(bpy, f"Pair {name}", pair(factor))
+    bpy.data.objects.remove(bpy.data.objects["Fresnel"])
+    path = tmp_path / f"pair-{mixed}.blend"
+    bpy.ops.wm.save_as_mainfile(filepath=str(path))
+    return path
+
+
+def test_a_mix_of_two_principled_bsdfs_renders_as_in_cycles(ext, tmp_path):
+    """Blending the two sides' inputs (``surface._blend``) is exact where a mask picks one side at a point; by a
+    constant factor it blends the roughnesses where Cycles sums the two lobes."""
+    e_ours, e_first, e_cycles = combined_against_cycles(pair_blend(tmp_path, True), pair_blend(tmp_path, False),
+                                                        tmp_path)
+    print(f"Mix(Principled, Principled) floors: Combined rMAE ours {e_ours['rmae']:.4f} (mean ratio "
+          f"{e_ours['mean_ratio']:.4f}), the first alone {e_first['rmae']:.4f}, Cycles 64 spp {e_cycles['rmae']:.4f}")
+    assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.02 and abs(e_ours["mean_ratio"] - 1.0) < 0.03
+    assert e_first["rmae"] > 2.0 * e_ours["rmae"]

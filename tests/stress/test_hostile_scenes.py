@@ -136,6 +136,13 @@ def cases():
     yield "diffuse and glossy mixed by a Fresnel of NaN IOR and a white metal, 100 bounces", room(
         materials=materials(fresnel_mix=np.nan, metal_color=(1.0, 1.0, 1.0), base_color=(1.0, 1.0, 1.0)),
         max_bounces=100), {}
+    yield "mixed with itself by a NaN factor", room(materials=materials(mix_other=1, mix_factor=np.nan)), {}
+    yield "mixed by a map of NaN and out-of-range texels, second row out of range", Scene.build(
+        base.triangles, Materials.make([{"name": "m", "mix_other": 2, "mix_factor": 1.0,
+                                         "maps": {"mix": TextureMap(0, channel=0)}},
+                                        {"name": "n", "metallic": 1.0, "roughness": 0.0, "mix_other": 99}]),
+        base.lights, base.camera, material=base.material, uvs=uvs,
+        textures=[np.array([[[np.nan, 0, 0, 1], [-4.0, 0, 0, 1]], [[9.0, 0, 0, 1], [0.5, 0, 0, 1]]])]), {}
     yield "room of pure blue glass, 100 bounces", room(materials=materials(
         transmission=1.0, ior=1.5, roughness=0.0, base_color=(0.0, 0.0, 1.0)), max_bounces=100), {}
     yield "glass block of a faint red (1e-30) in view", with_triangles(

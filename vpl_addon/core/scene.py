@@ -21,7 +21,8 @@ if TYPE_CHECKING:  # an annotation only: the core layer imports nothing above it
     from ..lights import Light
 
 
-INPUTS = ("base_color", "roughness", "metallic", "emission", "alpha", "normal", "bump")  # inputs an image can drive
+# inputs an image can drive (``mix``: a Mix Shader's factor, ``Materials.mix_other``)
+INPUTS = ("base_color", "roughness", "metallic", "emission", "alpha", "normal", "bump", "mix")
 
 
 @dataclass(frozen=True)
@@ -77,6 +78,10 @@ class Materials:
     # Metallic (such a Mix Shader by a Fresnel or a Layer Weight node: Cycles' F(N . I)), 0 where Metallic does;
     # None: 0 everywhere
     fresnel_mix: np.ndarray | None = None
+    # (M,) the row a Mix Shader blends this material's inputs with, -1 for none, by ``mix_factor`` (M,) (its map
+    # ``mix`` where linked): the second shader's weight; None: no material mixes
+    mix_other: np.ndarray | None = None
+    mix_factor: np.ndarray | None = None
 
     def __post_init__(self):
         if self.transmission is None:
@@ -93,7 +98,7 @@ class Materials:
     @staticmethod
     def make(rows: list[dict]) -> "Materials":
         """Rows of {name, base_color, roughness, metallic, emission, specular_tint, ior, specular, alpha,
-        transmission, pass_index, metal_color, fresnel_mix, maps}
+        transmission, pass_index, metal_color, fresnel_mix, mix_other, mix_factor, maps}
         (``maps``: input name -> TextureMap; ``texture``: an image index for Base Color alone); missing keys take
         defaults: a grey diffuse without a specular layer."""
         rows = [{"name": "default_surface"}] + list(rows)  # Cycles' name of its fallback (in Cryptomatte)
@@ -133,6 +138,10 @@ class Materials:
             m.metal_color = np.where(own[:, None], metal, np.float32(-1.0))
         if any("fresnel_mix" in r for r in rows):
             m.fresnel_mix = np.clip(np.nan_to_num(col("fresnel_mix", 0.0), nan=0.0, posinf=0.0), 0.0, 1e3)
+        if any(r.get("mix_other", -1) >= 0 for r in rows):
+            other = col("mix_other", -1, np.int32)
+            m.mix_other = np.where((other > 0) & (other < len(rows)), other, -1).astype(np.int32)
+            m.mix_factor = np.clip(np.nan_to_num(col("mix_factor", 0.0)), 0.0, 1.0)
         for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha,
                   m.transmission):
             np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)

@@ -84,6 +84,10 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     mat = scene.material[prim]
     m = scene.materials
     inputs = _inputs(scene, mat, prim, bary, ns)
+    f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
+    tint, f0, eta = m.specular_tint.astype(np.float64)[mat], f0[mat], eta[mat]  # per point from here
+    if m.mix_other is not None:
+        _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta)
     incident = dirs[rows]
     smooth, normal = np.empty((len(prim), 3)), np.empty((len(prim), 3))
     _turned(incident, ng, ns, inputs["normal"], smooth, normal)  # toward the ray after the normal map, as Cycles
@@ -92,14 +96,12 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
         if len(curved):
             inputs["metallic"][curved] = dielectric_fresnel(np.clip(-dot(smooth[curved], incident[curved]), 0.0, 1.0),
                                                             m.fresnel_mix[mat[curved]].astype(np.float64))
-    f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
-    base, metallic, eta = inputs["base_color"], inputs["metallic"], eta[mat]
+    base, metallic = inputs["base_color"], inputs["metallic"]
     metal = base  # the metallic lobe's F0: the Base Color, or a material's own (``Materials.metal_color``)
     if m.metal_color is not None and (m.metal_color[mat, 0] >= 0.0).any():
         metal = np.where(m.metal_color[mat] >= 0.0, m.metal_color[mat], base)
     edges, dielectric, below = (np.empty((len(prim), 3)) for _ in range(3))
-    _lobes(mat, m.specular_tint.astype(np.float64), f0, m.glass, base, metal, metallic, eta, edges, dielectric,
-           below)
+    _lobes(tint, f0, m.glass[mat], base, metal, metallic, eta, edges, dielectric, below)
     layered = np.nonzero(eta != 1.0)[0]
     if len(layered):
         mu = np.clip(-dot(normal[layered], incident[layered]), 0.0, 1.0)
@@ -124,25 +126,54 @@ def _turned(incident, ng, ns, mapped, smooth, normal):
 
 
 @kernel
-def _lobes(mat, tint, f0, glass, base, metal, metallic, eta, edges, dielectric, below):
-    """The Principled BSDF's lobes per point from its material ``mat``'s Specular Tint, layer F0 and glass flag
-    and its (textured) Base Color, metallic F0 (``metal``: the Base Color itself or its own) and Metallic: Base
-    Color and metallic F0 clamped to [0, 1] (in place), F82's ``edges``, the layer's F0 x tint (``dielectric``) and
-    the diffuse albedo before the layer takes its share (``below``). A ray stopped by a pane (``cutouts``) sees a
-    white mirror: metallic F0, Metallic and tint 1, no layer (``eta`` 1)."""
-    for i in range(len(mat)):
-        j = mat[i]
-        f, pane = f0[j], glass[j]
+def _lobes(tint, f0, glass, base, metal, metallic, eta, edges, dielectric, below):
+    """The Principled BSDF's lobes per point from its material's Specular Tint, layer F0 and glass flag and its
+    (textured) Base Color, metallic F0 (``metal``: the Base Color itself or its own) and Metallic: Base Color and
+    metallic F0 clamped to [0, 1] (in place), F82's ``edges``, the layer's F0 x tint (``dielectric``) and the
+    diffuse albedo before the layer takes its share (``below``). A ray stopped by a pane (``cutouts``) sees a white
+    mirror: metallic F0, Metallic and tint 1, no layer (``eta`` 1)."""
+    for i in range(len(glass)):
+        f, pane = f0[i], glass[i]
         if pane:
             metallic[i], eta[i], f = 1.0, 1.0, 0.0
         for c in range(3):
-            b, t = 1.0 if pane else min(max(base[i, c], 0.0), 1.0), 1.0 if pane else tint[j, c]
+            b, t = 1.0 if pane else min(max(base[i, c], 0.0), 1.0), 1.0 if pane else tint[i, c]
             base[i, c] = b
             s = 1.0 if pane else min(max(metal[i, c], 0.0), 1.0)
             metal[i, c] = s
             edges[i, c] = edge(s, t)
             dielectric[i, c] = f * t
             below[i, c] = (1.0 - metallic[i]) * b
+
+
+def _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta):
+    """A Mix Shader's two sides at the points of materials that mix (``Materials.mix_other``), in place: each
+    input, and the Specular Tint, layer F0 and IOR, is (1 - f) that of the material's own row + f that of the
+    other, f the mix's factor (or its map) at the point; the normal is the two normals' blend, made unit again.
+    Blending the inputs is exact for the diffuse colour and for Metallic's mix of lobes, and for two roughnesses or
+    IORs a blend of the lobes' parameters where Cycles sums the two lobes."""
+    m = scene.materials
+    other = m.mix_other[mat]
+    rows = np.nonzero(other >= 0)[0]
+    if not len(rows):
+        return
+    f = m.mix_factor[mat[rows]].astype(np.float64)
+    ids = m.mapped("mix")[mat[rows]]
+    for t in np.unique(ids[ids >= 0]):
+        sel = np.nonzero(ids == t)[0]
+        f[sel] = np.clip(at_points(m.maps[t], scene, prim[rows[sel]], bary[rows[sel]], scalar=True), 0.0, 1.0)
+    second = _inputs(scene, other[rows], prim[rows], bary[rows], ns[rows])
+    if inputs["normal"] is ns:  # the caller's normals stay as they were
+        inputs["normal"] = ns.copy()
+    f0_all, eta_all = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
+    pairs = [(inputs[name], second[name]) for name in ("base_color", "roughness", "metallic", "emission", "normal")]
+    pairs += [(tint, m.specular_tint.astype(np.float64)[other[rows]]), (f0, f0_all[other[rows]]),
+              (eta, eta_all[other[rows]])]
+    for mine, theirs in pairs:
+        g = f.reshape(-1, *([1] * (mine.ndim - 1)))
+        mine[rows] = (1.0 - g) * mine[rows] + g * theirs
+    normal = inputs["normal"]
+    normal[rows] = normalize(normal[rows])
 
 
 def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:

@@ -68,6 +68,7 @@ class Snapshot:
                           m.alpha, m.transmission, maps, *m.map_of.values(), np.asarray(scene.world),
                           *(() if m.metal_color is None else (m.metal_color,)),
                           *(() if m.fresnel_mix is None else (m.fresnel_mix,)),
+                          *(() if m.mix_other is None else (m.mix_other, m.mix_factor)),
                           np.array([scene.max_bounces]), *scene.textures, scene.uvs,
                           *(() if scene.tangents is None else (scene.tangents,)),
                           *(() if scene.colors is None else (scene.colors,)),
