@@ -258,7 +258,7 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
 
 def _cryptomatte_metadata(layer_name: str, passes, scene) -> dict[str, str]:
     """The manifests of the Cryptomatte kinds among ``passes`` (``core.cryptomatte``), for the file's header."""
-    names = {"CryptoObject": scene.object_names, "CryptoMaterial": scene.materials.names,
+    names = {"CryptoObject": scene.object_names, "CryptoMaterial": scene.materials.listed_names,
              "CryptoAsset": scene.asset_names}
     metadata = {}
     for kind, listed in names.items():

@@ -273,6 +273,7 @@ def test_glossy_mix_and_add_shaders(bpy):
     ids = {name: m.names.index(name) for name in cases}
     second = {name: m.mix_other[ids[name]] for name in ("Other", "Masked")}
     assert m.names[second["Other"]] == "Other (Mix Shader: second shader)"
+    assert set(m.names) - set(m.listed_names) == {m.names[i] for i in second.values()}  # not in Cryptomatte's list
     assert m.mix_factor[ids["Other"]] == pytest.approx(0.8)
     assert m.mix_factor[ids["Masked"]] == 1.0 and m.mapped("mix")[ids["Masked"]] >= 0
     assert (m.mix_other[[i for i in range(len(m.names)) if i not in (ids["Other"], ids["Masked"])]] < 0).all()

@@ -157,6 +157,15 @@ class Materials:
         np.maximum(m.emission, 0.0, out=m.emission)
         return m
 
+    @property
+    def listed_names(self) -> list[str]:
+        """The names a Cryptomatte manifest lists: every material's but those of the rows that are only a Mix
+        Shader's second side (``mix_other``), which keep their material's name in the passes."""
+        if self.mix_other is None:
+            return self.names
+        second = set(self.mix_other[self.mix_other >= 0].tolist())
+        return [name for i, name in enumerate(self.names) if i not in second]
+
     def mapped(self, name: str) -> np.ndarray:
         """(M,) index into ``maps`` of the texture driving input ``name`` per material, -1 for its value."""
         return self.map_of.get(name, np.full(len(self.names), -1, np.int32))
