@@ -543,14 +543,14 @@ class MaterialTable:
         ``Materials.mix_other``) by the factor (``surface._blend``). None (and no trace of having read the two
         shaders) when a side is not such a shader. A factor from a chain the engine does not read takes the
         factor's own value (with ``_map``'s warning)."""
-        mask, warned, held = None, len(self.warnings), len(self.holdouts)
+        mask, warned, held, rows = None, len(self.warnings), len(self.holdouts), len(self.rows)
         if value is None:
             mask = self._map(material, "Fac", fac)
             value = 1.0 if mask is not None else float(np.clip(_value(fac), 0.0, 1.0))
         first = self._shader(material, shaders[0], {"name": row["name"]})
         second = self._shader(material, shaders[1], {"name": f"{row['name']} ({node.name}: second shader)"})
-        if not (_plain(first) and _plain(second)):
-            del self.warnings[warned:], self.holdouts[held:]
+        if not (_plain(first) and _plain(second)):  # a side that mixes in turn has added its second row: gone
+            del self.warnings[warned:], self.holdouts[held:], self.rows[rows:]
             return None
         self.rows.append(second)
         first["mix_other"], first["mix_factor"] = len(self.rows), value

@@ -257,13 +257,23 @@ def test_glossy_mix_and_add_shaders(bpy):
             return mix.outputs[0]
         return build
 
+    def nested(nodes, links):
+        outer, inner = nodes.new("ShaderNodeMixShader"), nodes.new("ShaderNodeMixShader")
+        outer.inputs[0].default_value = 0.3
+        links.new(nodes.new("ShaderNodeBsdfPrincipled").outputs[0], inner.inputs[1])
+        links.new(nodes.new("ShaderNodeBsdfPrincipled").outputs[0], inner.inputs[2])
+        links.new(nodes.new("ShaderNodeBsdfDiffuse").outputs[0], outer.inputs[1])
+        links.new(inner.outputs[0], outer.inputs[2])
+        return outer.outputs[0]
+
     cases = {"Glossy": glossy, "Leaf": leaf, "Veil": veil, "Glow": glow,
              "Blend": mixed("ShaderNodeBsdfDiffuse"),  # Diffuse and Glossy: a metallic lobe of the mix's weight
              "Sheen": mixed("ShaderNodeBsdfDiffuse", "ShaderNodeFresnel"),  # by Fresnel: a dielectric layer
              "Layered": mixed("ShaderNodeBsdfDiffuse", "ShaderNodeLayerWeight"),
              "Other": mixed("ShaderNodeBsdfPrincipled"),  # two other BSDFs: blended by the factor
              "Masked": mixed("ShaderNodeBsdfPrincipled", "ShaderNodeTexImage"),  # ... or by an image
-             "Lit": mixed("ShaderNodeBsdfPrincipled", 0.8, "ShaderNodeEmission")}  # a glow: the heavier stands
+             "Lit": mixed("ShaderNodeBsdfPrincipled", 0.8, "ShaderNodeEmission"),  # a glow: the heavier stands
+             "Nested": nested}  # a mix of a mix: the heavier stands, and the inner mix leaves no row behind
     for k, (name, build) in enumerate(cases.items()):
         obj = add_mesh(bpy, name, [(0, 0, k), (1, 0, k), (0, 1, k)], [(0, 1, 2)],
                        material=surface_material(bpy, name, build))
@@ -300,7 +310,9 @@ def test_glossy_mix_and_add_shaders(bpy):
     assert alpha.channel == 3 and m.metallic[ids["Leaf"]] == 0.0
     assert m.alpha[ids["Veil"]] == pytest.approx(0.3) and m.mapped("alpha")[ids["Veil"]] < 0
     assert m.emission[ids["Glow"]] == pytest.approx((4.0, 2.0, 1.0)) and m.base_color[ids["Glow"]] == pytest.approx(0.3)
-    assert len(warnings) == 1 and all(word in warnings[0] for word in ("'Lit'", "Mix Shader", "Emission"))
+    assert sum(name.endswith("second shader)") for name in m.names) == 2  # Other's and Masked's alone
+    assert len(warnings) == 2 and all(word in warnings[0] for word in ("'Lit'", "Mix Shader", "Emission"))
+    assert all(word in warnings[1] for word in ("'Nested'", "Mix Shader", "Diffuse"))
 
 
 def test_bump_nodes_and_unrendered_layers(bpy):
