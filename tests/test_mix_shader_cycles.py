@@ -115,11 +115,19 @@ def pair_blend(tmp_path, mixed: bool):
 
 
 def test_a_mix_of_two_principled_bsdfs_renders_as_in_cycles(ext, tmp_path):
-    """Blending the two sides' inputs (``surface._blend``) is exact where a mask picks one side at a point; by a
-    constant factor it blends the roughnesses where Cycles sums the two lobes."""
+    """The two sides' colours are blended and the glossy lobe drawn from one side by the factor (``surface._blend``),
+    which is exact where a mask picks one side at a point and in expectation for a constant factor. On the constant
+    strip alone (the image's left fifth) blending the two roughnesses too gave rMAE 0.118 against Cycles' 0.042."""
+    from vpl_gi.vpl_addon.core.exr import read_passes
     e_ours, e_first, e_cycles = combined_against_cycles(pair_blend(tmp_path, True), pair_blend(tmp_path, False),
                                                         tmp_path)
     print(f"Mix(Principled, Principled) floors: Combined rMAE ours {e_ours['rmae']:.4f} (mean ratio "
           f"{e_ours['mean_ratio']:.4f}), the first alone {e_first['rmae']:.4f}, Cycles 64 spp {e_cycles['rmae']:.4f}")
     assert e_ours["rmae"] <= 1.5 * e_cycles["rmae"] + 0.02 and abs(e_ours["mean_ratio"] - 1.0) < 0.03
     assert e_first["rmae"] > 2.0 * e_ours["rmae"]
+    ours, cycles, reference = (read_passes(str(tmp_path / f"{n}.exr"))[0]["Combined"][12:, :10, :3]
+                               for n in ("ours", "cycles64", "reference"))
+    strip = [(np.abs(image - reference).mean(axis=2) / np.maximum(reference.mean(axis=2), 1e-2)).mean()
+             for image in (ours, cycles)]
+    print(f"the constant strip: rMAE ours {strip[0]:.4f}, Cycles 64 spp {strip[1]:.4f}")
+    assert strip[0] <= 1.5 * strip[1] + 0.01

@@ -147,11 +147,13 @@ def _lobes(tint, f0, glass, base, metal, metallic, eta, edges, dielectric, below
 
 
 def _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta):
-    """A Mix Shader's two sides at the points of materials that mix (``Materials.mix_other``), in place: each
-    input, and the Specular Tint, layer F0 and IOR, is (1 - f) that of the material's own row + f that of the
-    other, f the mix's factor (or its map) at the point; the normal is the two normals' blend, made unit again.
-    Blending the inputs is exact for the diffuse colour and for Metallic's mix of lobes, and for two roughnesses or
-    IORs a blend of the lobes' parameters where Cycles sums the two lobes."""
+    """A Mix Shader's two sides at the points of materials that mix (``Materials.mix_other``), in place, by the
+    mix's factor f (or its map) at each point: the colours, Metallic, emission and normal blended, (1 - f) the
+    material's own row's + f the other's (the normal made unit again), which is exact for the diffuse lobe; the
+    glossy lobe's shape (roughness, Specular Tint, layer F0 and IOR) drawn whole from one side, the other's with
+    probability f by a number hashed from the point (``_hashed``), so that two lobes of different roughness
+    are their sum in expectation, as Cycles sums them (their blend was up to 50 % bright on a highlight's flank;
+    bench/README.md, twenty-seventh session)."""
     m = scene.materials
     other = m.mix_other[mat]
     rows = np.nonzero(other >= 0)[0]
@@ -165,15 +167,29 @@ def _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta):
     second = _inputs(scene, other[rows], prim[rows], bary[rows], ns[rows])
     if inputs["normal"] is ns:  # the caller's normals stay as they were
         inputs["normal"] = ns.copy()
-    f0_all, eta_all = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
-    pairs = [(inputs[name], second[name]) for name in ("base_color", "roughness", "metallic", "emission", "normal")]
-    pairs += [(tint, m.specular_tint.astype(np.float64)[other[rows]]), (f0, f0_all[other[rows]]),
-              (eta, eta_all[other[rows]])]
-    for mine, theirs in pairs:
-        g = f.reshape(-1, *([1] * (mine.ndim - 1)))
-        mine[rows] = (1.0 - g) * mine[rows] + g * theirs
+    for name in ("base_color", "metallic", "emission", "normal"):
+        mine, g = inputs[name], f.reshape(-1, *([1] * (inputs[name].ndim - 1)))
+        mine[rows] = (1.0 - g) * mine[rows] + g * second[name]
     normal = inputs["normal"]
     normal[rows] = normalize(normal[rows])
+    drawn = np.nonzero(_hashed(prim[rows], bary[rows]) < f)[0]  # the points whose lobe is the other side's
+    at, theirs = rows[drawn], other[rows[drawn]]
+    f0_all, eta_all = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
+    inputs["roughness"][at] = second["roughness"][drawn]
+    tint[at], f0[at], eta[at] = m.specular_tint.astype(np.float64)[theirs], f0_all[theirs], eta_all[theirs]
+
+
+def _hashed(prim: np.ndarray, bary: np.ndarray) -> np.ndarray:
+    """(K,) numbers uniform in [0, 1) that depend on the hit alone (its triangle and barycentrics: SplitMix64's
+    finaliser of their bits), so the same point always draws the same one, whichever ray finds it."""
+    x = prim.astype(np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+    x ^= np.ascontiguousarray(bary[:, 1]).view(np.uint64)
+    x ^= np.ascontiguousarray(bary[:, 2]).view(np.uint64) << np.uint64(1)
+    for shift, factor in ((30, 0xBF58476D1CE4E5B9), (27, 0x94D049BB133111EB)):
+        x ^= x >> np.uint64(shift)
+        x *= np.uint64(factor)
+    x ^= x >> np.uint64(31)
+    return (x >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
 
 
 def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:
