@@ -25,6 +25,7 @@ import numpy as np
 
 from ..core import cryptomatte
 from ..core import passes as P
+from ..core.color import largest
 from ..core.sampling import cosine_hemisphere, dot, interpolated
 from .gbuffer import camera_hits
 
@@ -79,8 +80,10 @@ def data_passes(gbuf, scene, wanted, tracer, rng: np.random.Generator, mist: Mis
             if name in centred:
                 out[name] = np.full((count, P.CHANNELS[name]), empty)
                 out[name][at] = value().reshape(len(at), P.CHANNELS[name])
-    if P.DENOISING_NORMAL in wanted:  # through smooth glass, as Cycles' denoising data (its albedo too)
-        out[P.DENOISING_NORMAL] = gbuf.splat(surf.shading_normal) @ cam.to_world[:3, :3] * (1.0, 1.0, -1.0)
+    if P.DENOISING_NORMAL in wanted:  # through smooth glass, as Cycles' denoising data (its albedo too), and
+        # none from a surface without a BSDF (an Emission shader alone), as Cycles writes none there (measured)
+        bsdf = ((largest(surf.albedo) > 0.0) | surf.glossy)[:, None]
+        out[P.DENOISING_NORMAL] = gbuf.splat(surf.shading_normal * bsdf) @ cam.to_world[:3, :3] * (1.0, 1.0, -1.0)
     gbuf = gbuf.first_surfaces()
     surf = gbuf.surface
     object_id = scene.object_id[surf.prim]
