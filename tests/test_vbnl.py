@@ -339,6 +339,25 @@ def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
     assert np.isfinite(lights.radiance).all() and (lights.radiance >= 0).all()
 
 
+def test_light_gathered_through_coloured_glass_takes_its_colour():
+    """The lit floor with a pane of tint (0.3, 0.6, 1) at 1.2 m, between the lamp and the camera's ceiling: the
+    ceiling's indirect light comes from the floor's lights through the pane, so the gather's light and BSDF samples
+    (``bounce_tinted``) carry its colour (with grey samples, which cross the pane by its luminance, the pass came
+    out grey)."""
+    from vpl_addon.core.scene import Materials, Scene
+    from vpl_addon.render import RenderSettings, render
+    tint = np.array([0.3, 0.6, 1.0])
+    room = lit_floor(PointLight("lamp", [0.0, 0.0, 1.0], [400.0] * 3))
+    pane = room.triangles[:2] + [0.0, 0.0, 1.2]
+    materials = Materials.make([{"name": "grey"}, {"name": "pane", "transmission": 1.0, "base_color": tuple(tint)}])
+    scene = Scene.build(np.concatenate([room.triangles, pane]), materials, room.lights, room.camera,
+                        material=[1, 1, 1, 1, 2, 2], max_bounces=1)
+    indirect = render(scene, RenderSettings(samples=16, method="vbnl", passes=("Combined", "Diffuse Indirect"),
+                                            placement=MethodSettings(vpls=512))).passes["Diffuse Indirect"]
+    colour = indirect.reshape(-1, 3).mean(axis=0)
+    assert colour[2] > 0.0 and np.allclose(colour / colour[2], tint, atol=0.03)
+
+
 @pytest.mark.parametrize("threads", [1, 2])
 def test_the_placement_traces_its_photons_on_one_thread_or_more(threads):
     """One tracing thread while the candidates are found, every thread after: a tracer of one thread has no more

@@ -18,9 +18,10 @@ Coloured glass (channels of its tint unequal; the tint is the colour light keeps
 the Glass BSDF's Color, the Principled BSDF's square root of Base Color, as Cycles tints each crossing): a ray asked
 for its colour (``tinted``) goes on with probability (1 - F) x the tint's largest channel and carries the tint
 divided by that channel as a weight (at most 1, so no ray gains light). The camera's rays, the shadow rays of
-direct light, light paths and the summing gather's shadow rays carry it; the rays that ask only whether or where
-they hit (a BSDF sample of the photon lights' gather, a camera path's extension, smc's and bidir's own visibility,
-AO) take the tint's luminance as the grey above.
+direct light, light paths, the summing gather's shadow rays and the photon lights' gather (its samples and the
+camera path's extension, ``surface.bounce_tinted``) carry it; the rays that ask only whether or where they hit
+(camera paths over metal for the summing methods, vbnl's placement, smc's and bidir's own rays, AO) take the
+tint's luminance as the grey above.
 
 ``Tracer`` asks a ``Cutouts`` at every hit on such a triangle, so camera rays, shadow rays, light paths and the
 gather's visibility all see the same holes and panes; it also reports which rays went through glass, whose light

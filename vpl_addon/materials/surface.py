@@ -326,13 +326,21 @@ def bounce(scene, tracer, surface: Surface, dirs: np.ndarray, rows: np.ndarray |
     """Rays from the points of ``surface`` (or from its points ``rows``, a ray each) along ``dirs``, offset off it;
     rays that would leave below the true surface are dropped. Returns (what the rays hit, the index of the ray
     each hit came from)."""
+    return bounce_tinted(scene, tracer, surface, dirs, rows, tinted=False)[:2]
+
+
+def bounce_tinted(scene, tracer, surface: Surface, dirs: np.ndarray, rows: np.ndarray | None = None,
+                  tinted: bool = True):
+    """``bounce`` for rays that carry the colour of the coloured glass they cross (``Tracer.intersect``'s
+    ``tinted``): (what the rays hit, the index of the ray each hit came from, (H,3) the colour each hit's light
+    keeps, or None where no glass on the way is coloured)."""
     position, normal = surface.position, surface.geometric_normal
     if rows is not None:  # the two fields a ray needs, not a whole record of the rows
         position, normal = take(position, rows), take(normal, rows)
     leave = np.nonzero(dot(dirs, normal) > 0.0)[0]
-    hits = tracer.intersect(tracer.offset_origin(position[leave], normal[leave]), dirs[leave])
+    hits = tracer.intersect(tracer.offset_origin(position[leave], normal[leave]), dirs[leave], tinted=tinted)
     rows = np.nonzero(hits.hit)[0]
-    return shade(scene, dirs[leave], hits, rows), leave[rows]
+    return shade(scene, dirs[leave], hits, rows), leave[rows], None if hits.tint is None else hits.tint[rows]
 
 
 def diffuse_bounce(scene, tracer, surface: Surface, rng: np.random.Generator):

@@ -44,7 +44,7 @@ from ...core.compiled import inline, kernel
 from ...core.sampling import PathNumbers, basis, dot, group_sum
 from ...lights.direct import direct_light
 from ...materials.microfacet import GlossyLobe
-from ...materials.surface import bounce
+from ...materials.surface import bounce_tinted
 from ...paths.vertices import PathVertices, at_metal, merged, roulette
 
 
@@ -125,7 +125,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
     levels = numbers(max(len(lights) - 1, 1).bit_length() + TREE_SLACK, owner, branch, 3, nets=False)
     lit, toward, drawn, p_light = _light_directions(point, lights, u[2:], levels, choice, tree, total_power)
     rows = np.concatenate([lit, np.nonzero(p_bsdf > 0.0)[0]])
-    y, at = bounce(scene, tracer, point, np.concatenate([toward[lit], w[rows[len(lit):]]]), rows)
+    y, at, tint = bounce_tinted(scene, tracer, point, np.concatenate([toward[lit], w[rows[len(lit):]]]), rows)
     source = rows[at]  # the vertex each hit came from
     light_hit = np.nonzero(at < len(lit))[0]
     weight = throughput[source] * sampled[source]  # f cos / pdf for the BSDF samples
@@ -133,6 +133,8 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
     if len(light_hit):  # the light samples' f cos and the pdf of the BSDF sampling the same direction (MIS)
         f_cos, pdf[light_hit] = v.evaluate(toward[source[light_hit]], source[light_hit])
         weight[light_hit] = throughput[source[light_hit]] * f_cos
+    if tint is not None:  # what coloured glass between the vertex and its hit leaves of the light
+        weight *= tint
     hit_light = np.full(len(at), -1)
     hit_light[light_hit] = drawn[source[light_hit]]
     pair, light, share = _covering(lights, y)
