@@ -261,3 +261,25 @@ def test_the_g_buffer_shades_and_looks_up_the_world_along_the_refracted_rays():
     floor = np.nonzero(hits.prim < 2)[0]
     assert len(floor) > 0.9 * len(px) and np.abs(d[floor, :2]).max() > 0.2
     assert np.allclose(heading[floor, :2], d[floor, :2] / 1.5, atol=1e-9)
+
+
+def test_glass_that_absorbs_reflects_fresnel_and_no_more():
+    """A pane of tint (0.3, 0.6, 0.9) seen at 30 degrees: a camera ray stops at it with probability 1 - (1 - F) 0.9,
+    and what stops sees its mirror, which must reflect F (Cycles' glass reflects F; the rest of what does not cross
+    is absorbed): the stopped rays carry F / (1 - T), so the pane reflects F on average and passes (1 - F) tint."""
+    from vpl_addon.materials.microfacet import dielectric_fresnel
+    tint = np.array([0.3, 0.6, 0.9])
+    theta = np.radians(30.0)
+    fresnel = dielectric_fresnel(np.array([np.cos(theta)]), np.array([1.5]))[0]
+    k = 40000
+    tracer = tracer_of(fence_scene({"transmission": 1.0, "ior": 1.5, "base_color": tuple(tint), "roughness": 0.0}))
+    hits, _, _ = tracer.intersect_bent(np.tile([0.2, 0.5, 1.0], (k, 1)),
+                                       np.tile([np.sin(theta), 0.0, -np.cos(theta)], (k, 1)))
+    on_pane = hits.prim >= 2
+    stop = 1.0 - (1.0 - fresnel) * 0.9
+    assert abs(on_pane.mean() - stop) < 4.0 * np.sqrt(stop * (1.0 - stop) / k)
+    assert np.allclose(hits.tint[on_pane], fresnel / stop)  # each stop: F / (1 - T), below 1
+    reflected, passed = ((hits.tint * where[:, None]).mean(axis=0) for where in (on_pane, ~on_pane))
+    spread = 4.0 * np.sqrt(stop * (1.0 - stop) / k)
+    assert np.allclose(reflected, fresnel, atol=spread * fresnel / stop)
+    assert np.allclose(passed, (1.0 - fresnel) * tint, atol=spread)

@@ -47,7 +47,9 @@ class Cutouts:
         tint = np.clip(m.base_color.astype(np.float64), 0.0, 1.0)  # what crossing a face of the glass leaves
         most = tint.max(axis=1)
         coloured = self._glass & (most > tint.min(axis=1))
-        self.coloured = bool(coloured.any())  # whether any ray asked for its colour can get one but grey
+        # whether a ray asked for its colour can get a weight but 1: some glass is not clear white (it is coloured,
+        # or what it absorbs must not show as reflection)
+        self.coloured = bool((self._glass & (tint.min(axis=1) < 1.0)).any())
         self._grey = luminance(tint)  # the chance to pass (times 1 - F) of a ray that does not carry colour
         self._clear = np.where(coloured, most, self._grey)  # and of one that does, carrying ``_tint``
         self._tint = np.where(coloured[:, None], tint / np.maximum(most, 1e-300)[:, None], 1.0)
@@ -76,8 +78,11 @@ class Cutouts:
         """(goes on (N,) bool, through glass (N,) bool, (N,3) the unit directions they go on with, (N,3) the colour
         weight of each or None) for rays of unit directions ``d`` hitting (prim, u, v) of geometric normals ``ng``:
         each goes on with probability 1 - alpha + alpha T (T of glass, 0 otherwise), through a hole straight. The
-        weight (``tinted`` rays, where some glass is coloured) is 1 but for the rays through coloured glass. With
-        ``solid_glass`` glass stops every ray (its holes do not): the first surface, as Cycles' data passes see it.
+        weight (``tinted`` rays, where some glass is not clear white) is 1 but for the rays through coloured glass and
+        those that stop at glass that absorbs: a ray stops at a face with probability 1 - T and is shaded as its
+        mirror, which must reflect F, so it carries F / (1 - T) (and, inside a solid, where what stops is what the
+        glass absorbs, 0). With ``solid_glass`` glass stops every ray (its holes do not): the first surface, as
+        Cycles' data passes see it.
 
         Without ``bend`` a pane is a thin sheet: the ray goes on straight and T takes F at the IOR from either side.
         With ``bend`` the glass is a solid's surface, as Cycles' Glass BSDF renders it: the IOR is relative to the
@@ -113,6 +118,9 @@ class Cutouts:
         if tinted and self.coloured:
             weight = np.ones((len(prim), 3))
             weight[through] = self._tint[mat[through]]
+            if len(glass):  # the glass's stops reflect F of the light, not the 1 - T that stops
+                stop = ~hole[glass] & ~through[glass]
+                weight[glass[stop]] = (fresnel[stop] / np.maximum(1.0 - clear[glass[stop]], 1e-300))[:, None]
         if not bend or not len(glass):
             return hole | through, through, onward, weight
         rows = np.nonzero(through[glass])[0]
@@ -127,8 +135,11 @@ class Cutouts:
         onward[glass[back[kept]]] = turned[kept]
         on = hole | through
         on[glass[back[kept]]] = True
-        if weight is not None:  # a ray past the critical angle did not cross
-            weight[glass[rows[~ok]]] = 1.0
+        if weight is not None:
+            weight[glass[rows[~ok]]] = 1.0  # a ray a bent normal sent back did not cross: a mirror
+            weight[glass[back]] = 1.0  # reflected inside (or back out) with probability F
+            absorbed = inside & ~hole[glass] & (x[glass] >= alpha[glass] * (clear[glass] + fresnel))
+            weight[glass[absorbed]] = 0.0  # inside, a ray that neither crosses nor reflects is absorbed
         return on, through, onward, weight
 
     def _microfacets(self, normal, d, mat, rng) -> np.ndarray:
