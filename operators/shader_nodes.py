@@ -545,8 +545,7 @@ class MaterialTable:
         factor's own value (with ``_map``'s warning)."""
         mask, warned, held, rows = None, len(self.warnings), len(self.holdouts), len(self.rows)
         if value is None:
-            mask = self._map(material, "Fac", fac)
-            value = 1.0 if mask is not None else float(np.clip(_value(fac), 0.0, 1.0))
+            value, mask = self._mask(material, fac)
         first = self._shader(material, shaders[0], {"name": row["name"]})
         second = self._shader(material, shaders[1], {"name": f"{row['name']} ({node.name}: second shader)"})
         if not (_plain(first) and _plain(second)):  # a side that mixes in turn has added its second row: gone
@@ -558,6 +557,12 @@ class MaterialTable:
             first.setdefault("maps", {})["mix"] = mask
         return first
 
+    def _mask(self, material, fac) -> tuple[float, TextureMap | None]:
+        """(the weight, its map) of a Mix Shader's linked factor ``fac``: an image (a mask) is the map, of weight
+        1; a chain the engine does not read leaves the factor's own value, with ``_map``'s warning."""
+        mask = self._map(material, "Fac", fac)
+        return (1.0, mask) if mask is not None else (float(np.clip(_value(fac), 0.0, 1.0)), None)
+
     def _diffuse_and_glossy(self, material, fac, shaders, row: dict) -> dict | None:
         """A Mix Shader of a Diffuse and a Glossy BSDF as one material, or None for a factor it does not read: the
         Diffuse's colour (and maps, normal) with a metallic lobe of the Glossy's colour (``Materials.metal_color``,
@@ -565,9 +570,8 @@ class MaterialTable:
         factor f (the second shader's weight), which is Cycles' (1 - f) Diffuse + f Glossy, or into the Glossy's side
         by an image (a mask: the metallic lobe's map) or at each point by the Fresnel curve of a Fresnel node's Fac
         or a Layer Weight's Fresnel (IOR 1 / (1 - Blend), as Cycles computes it; ``Materials.fresnel_mix``: F(N . I)
-        as Cycles' mix). (A Principled dielectric
-        layer of that IOR instead is 20 % brighter than Cycles' mix at grazing views, as Cycles' own Principled BSDF
-        is.)"""
+        as Cycles' mix). (A Principled dielectric layer of that IOR instead is 20 % brighter than Cycles' mix at
+        grazing views, as Cycles' own Principled BSDF is.)"""
         glossy_second = shaders[1].type == "BSDF_GLOSSY"
         diffuse, glossy = (shaders[0], shaders[1]) if glossy_second else (shaders[1], shaders[0])
         value, ior, mask = _constant(fac), None, None
@@ -576,8 +580,7 @@ class MaterialTable:
                 return None
             ior = _fresnel_ior(fac)
             if ior is None:  # an image (a mask) weighs the Glossy: the metallic lobe's map
-                mask = self._map(material, "Fac", fac)
-                value = _value(fac) if mask is None else 1.0  # the factor's own value when the chain is not read
+                value, mask = self._mask(material, fac)
         gloss = self._glossy(material, glossy, {"name": row["name"]})
         row = self._shader(material, diffuse, row)
         row["roughness"] = gloss["roughness"]

@@ -159,7 +159,7 @@ class Tracer:
         todo = todo[self.cutouts.prims[hits.prim[todo]]]
         if not len(todo):
             return hits, crossed, dirs
-        if tinted and self.cutouts.coloured:
+        if tinted and self.cutouts.weighs:
             hits.tint = np.ones((len(origins), 3))
         tmax = np.broadcast_to(np.asarray(tmax, np.float64), (len(origins),))
         rng = self._stream(origins, dirs)

@@ -149,10 +149,10 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
             pdf[hit] *= lights.selection(p[rows[hit]], ns[rows[hit]], np.full(len(hit), index))
         seen, _, tint = tracer.visible_through(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None,
                                                origin[owner[rows[hit]]], tinted=True)
+        hit = hit[seen]
         light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]
         if tint is not None:
-            light_in *= tint
-        hit, light_in = hit[seen], light_in[seen]
+            light_in *= tint[seen]
         shine[lo:hi] += group_sum(owner[rows[hit]], light_in, hi - lo)
 
 

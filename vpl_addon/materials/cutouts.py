@@ -8,9 +8,10 @@ alpha blend leaves it in between.
 Glass (``Materials.glass``: Transmission Weight >= 0.5, or a Glass BSDF): a smooth dielectric surface. A ray goes
 on through it with probability T = (1 - F(cos theta, IOR)) x the luminance of its Base Color (Walter et al. 2007,
 eq. 22 for F); where it stops, ``surface.shade`` makes the point a white mirror of the glass's roughness, so the light
-it reflects is 1 - T in expectation. Camera rays refract as they go on (``Tracer.intersect_bent``: Snell's law about
-the interpolated normal, F of the interface from the side the ray comes from), so a glass ball shows the room upside
-down as in Cycles, and rough glass blurs what lies behind it; every other ray (shadow rays, light paths, the
+it reflects is 1 - T in expectation (a ray that carries colour, below, carries F / (1 - T) there: F). Camera rays
+refract as they go on (``Tracer.intersect_bent``: Snell's law about the interpolated normal, F of the interface from
+the side the ray comes from), so a glass ball shows the room upside down as in Cycles, and rough glass blurs what
+lies behind it; every other ray (shadow rays, light paths, the
 gather's) takes glass as a thin sheet and goes on straight, with F at the IOR on both faces, which is exact for a
 pane and keeps shadow rays straight segments.
 
@@ -47,9 +48,9 @@ class Cutouts:
         tint = np.clip(m.base_color.astype(np.float64), 0.0, 1.0)  # what crossing a face of the glass leaves
         most = tint.max(axis=1)
         coloured = self._glass & (most > tint.min(axis=1))
-        # whether a ray asked for its colour can get a weight but 1: some glass is not clear white (it is coloured,
-        # or what it absorbs must not show as reflection)
-        self.coloured = bool((self._glass & (tint.min(axis=1) < 1.0)).any())
+        # whether a ray asked for its colour can carry a weight but 1: some glass is not clear white (it is
+        # coloured, or what it absorbs must not show as reflection)
+        self.weighs = bool((self._glass & (tint.min(axis=1) < 1.0)).any())
         self._grey = luminance(tint)  # the chance to pass (times 1 - F) of a ray that does not carry colour
         self._clear = np.where(coloured, most, self._grey)  # and of one that does, carrying ``_tint``
         self._tint = np.where(coloured[:, None], tint / np.maximum(most, 1e-300)[:, None], 1.0)
@@ -115,7 +116,7 @@ class Cutouts:
         hole = x >= alpha
         through = ~hole & (x < alpha * clear)
         weight = None
-        if tinted and self.coloured:
+        if tinted and self.weighs:
             weight = np.ones((len(prim), 3))
             weight[through] = self._tint[mat[through]]
             if len(glass):  # the glass's stops reflect F of the light, not the 1 - T that stops
