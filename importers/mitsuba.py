@@ -366,7 +366,7 @@ class _Parser:
             rgb, tex = self.colour(el, "diffuse_reflectance", (0.5, 0.5, 0.5))
             ior = self._ior(el)
             warn(f"approximated as Principled BSDF: base colour = diffuse_reflectance, roughness "
-                 f"{rough:.3f} (sqrt alpha), specular IOR {ior:.2f}; VPL GI treats it as diffuse")
+                 f"{rough:.3f} (sqrt alpha), specular IOR {ior:.2f}")
             return Material(name, tuple(rgb), tex, roughness=rough, specular=0.5, ior=ior)
         if kind in ("conductor", "roughconductor"):
             spec, tex = self.colour(el, "specular_reflectance", (1.0, 1.0, 1.0))
@@ -380,16 +380,14 @@ class _Parser:
             else:
                 f0 = np.array([0.95, 0.64, 0.54]) if mat_name in (None, "Cu") else np.array([0.9, 0.9, 0.9])
                 how = f"base colour = a fixed metal colour for material {mat_name or 'Cu (default)'}"
-            warn(f"approximated as metallic Principled BSDF: {how}, roughness {rough:.3f} (sqrt alpha); "
-                 f"VPL GI treats it as black (no diffuse part)")
+            warn(f"approximated as metallic Principled BSDF: {how}, roughness {rough:.3f} (sqrt alpha)")
             if tex is not None and tex.kind == "checkerboard":
                 tex = Texture("checkerboard", color0=tuple(np.asarray(tex.color0) * f0),
                               color1=tuple(np.asarray(tex.color1) * f0), uv_scale=tex.uv_scale, element=tex.element)
             return Material(name, tuple(np.clip(spec * f0, 0, 1)), tex, roughness=rough, metallic=1.0, specular=0.5)
         if kind in ("dielectric", "roughdielectric", "thindielectric"):
             ior = self._ior(el)
-            warn(f"approximated as Principled BSDF transmission 1, IOR {ior:.2f}, roughness {rough:.3f}; "
-                 f"VPL GI renders it as an opaque white diffuse surface")
+            warn(f"approximated as Principled BSDF transmission 1, IOR {ior:.2f}, roughness {rough:.3f}")
             return Material(name, (1.0, 1.0, 1.0), roughness=rough, transmission=1.0, specular=0.5, ior=ior)
         warn("BSDF type is not supported; rendered as grey diffuse 0.5")
         return Material(name)

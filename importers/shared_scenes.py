@@ -36,13 +36,15 @@ SCENES = {
     "cornell_measured": ("cornell_box_measured", cornell_measured.DATA, "cornell"),
     "cornell_bitterli": ("cornell_box_bitterli", "scene.xml", "mitsuba"),
     "veach_bidir": ("veach_bidir_bitterli", "scene.xml", "mitsuba"),
+    "veach_mis": ("veach_mis_bitterli", "scene.xml", "mitsuba"),
     "veach_ajar": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba"),
     "veach_ajar_diffuse": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba-diffuse"),
     "living_room": ("living_room_bitterli", "scene.xml", "mitsuba"),
     "helmet_hdri": ("damaged_helmet_khronos", "DamagedHelmet.gltf", "gltf"),
     "hotel_room": ("hotel_room_openshaw", "hotel_room.glb", "gltf"),
 }
-REFERENCE_IMAGES = {"cornell_bitterli": "TungstenRender.exr", "veach_bidir": "TungstenRender.exr"}
+REFERENCE_IMAGES = {"cornell_bitterli": "TungstenRender.exr", "veach_bidir": "TungstenRender.exr",
+                    "veach_mis": "TungstenRender.exr"}
 
 
 def load(source_dir: str, name: str, width: int = mitsuba.DEFAULT_WIDTH) -> mitsuba.MitsubaScene:

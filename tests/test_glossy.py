@@ -154,6 +154,65 @@ def test_glossy_direct_of_an_area_light_over_a_metal_floor(roughness, shape):
     assert light_out.std() / light_out.mean() < 0.1
 
 
+def _uv_sphere(center, radius, rings=32, segments=64):
+    """(T,3,3) triangles of a UV sphere (quads split in two, a fan at each pole), as Blender's UV sphere."""
+    theta = np.linspace(0.0, np.pi, rings + 1)
+    phi = np.linspace(0.0, 2.0 * np.pi, segments + 1)
+    t, f = np.meshgrid(theta, phi, indexing="ij")
+    v = np.stack([np.sin(t) * np.cos(f), np.sin(t) * np.sin(f), np.cos(t)], axis=-1) * radius + center
+    a, b, c, d = v[:-1, :-1], v[:-1, 1:], v[1:, 1:], v[1:, :-1]
+    tris = np.concatenate([np.stack([a, c, b], -2)[1:], np.stack([a, d, c], -2)[:-1]])
+    return tris.reshape(-1, 3, 3)
+
+
+def test_glossy_direct_of_a_glowing_sphere_seen_in_a_metal_floor():
+    """A glowing mesh sphere mirrored by a smooth metal floor (roughness 0.1, as the plates of Veach's MIS scene)
+    seen at 70 degrees from its normal: Glossy Direct x Glossy Color against the lobe integrated over the directions
+    that find the sphere's triangles (a 1000 x 1000 grid over a cone about the sphere). A second glowing sphere 30 m
+    away, under the floor, makes the emitters' own BVH 30 m wide, so the rays it traces for the lobe's samples leave
+    the floor pushed 5e-4 m off it: their distance to the sphere, taken from that pushed origin, put the shadow ray's
+    end inside the sphere wherever its surface faced up, and 28 % of the highlight was lost (veach_mis: the
+    reflections' lower rims dark by half)."""
+    radius, theta, power = 0.2, np.radians(70.0), 10.0
+    view = np.array([np.sin(theta), 0.0, np.cos(theta)])  # toward the camera
+    # 1 m along the mirror direction, and 0.9 radii below it: the lobe's rays meet the sphere's upper rim
+    center = np.array([-np.sin(theta), 0.0, np.cos(theta)]) - 0.9 * radius * np.array([np.cos(theta), 0.0,
+                                                                                         np.sin(theta)])
+    sphere = np.concatenate([_uv_sphere(center, radius), _uv_sphere(np.array([30.0, 0.0, -5.0]), radius, 8, 16)])
+    floor = plane_scene([], view=0.01, res=16)
+    to_world = np.eye(4)
+    to_world[:3, 0], to_world[:3, 1], to_world[:3, 2] = (0.0, 1.0, 0.0), np.cross(view, [0.0, 1.0, 0.0]), view
+    to_world[:3, 3] = 5.0 * view
+    camera = replace(floor.camera, to_world=to_world)
+    glow = power / (4.0 * np.pi * np.pi * radius * radius)
+    f0 = (0.9, 0.7, 0.5)
+    rows = [{"name": "metal", "base_color": f0, "metallic": 1.0, "roughness": 0.1},
+            {"name": "glow", "emission": (glow,) * 3}]
+    scene = Scene.build(np.concatenate([floor.triangles, sphere]), Materials.make(rows), [], camera,
+                        material=[1, 1] + [2] * len(sphere))
+    out = render(scene, RenderSettings(samples=16, light_samples=4, method="none",
+                                       passes=("Glossy Direct", "Glossy Color"))).passes
+    light_out = (out["Glossy Direct"] * out["Glossy Color"])[..., 0]
+
+    # directions from the floor's centre, uniform in solid angle over a cone a little wider than the sphere
+    axis = center / np.linalg.norm(center)
+    cos_max = np.cos(np.arcsin(1.02 * radius / np.linalg.norm(center)))
+    g = (np.arange(1000) + 0.5) / 1000
+    u, v = (x.ravel() for x in np.meshgrid(g, g))
+    z = 1.0 - u * (1.0 - cos_max)
+    s = np.sqrt(1.0 - z * z)
+    e1 = np.array([0.0, 1.0, 0.0])
+    e2 = np.cross(axis, e1)
+    dirs = (s * np.cos(2 * np.pi * v))[:, None] * e1 + (s * np.sin(2 * np.pi * v))[:, None] * e2 + z[:, None] * axis
+    dirs = dirs[Tracer(sphere).intersect(np.zeros_like(dirs), dirs).hit]
+    k = len(dirs)
+    value, _ = M.evaluate(np.tile([0.0, 0.0, 1.0], (k, 1)), np.tile(view, (k, 1)), dirs,
+                          np.full(k, float(M.alpha(np.array([0.1]))[0])), np.tile(f0, (k, 1)), np.zeros((k, 3)))
+    scale = M.compensation(np.array([0.1]), np.array([f0]), np.zeros((1, 3)), np.array([view[2]])).scale[0, 0]
+    expected = value[:, 0].sum() * 2.0 * np.pi * (1.0 - cos_max) / u.size * glow * scale
+    assert light_out.mean() == pytest.approx(expected, rel=0.02)
+
+
 @pytest.mark.parametrize("roughness", [0.3, 0.05])
 def test_glossy_direct_of_the_world_over_a_metal_floor(roughness):
     """A constant world over a metal floor: the light the lobe reflects is the world's radiance times the lobe's

@@ -143,11 +143,13 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
         answer = light.mis(p[rows], ns[rows], w)
         if answer is None:
             continue
-        dist, radiance, pdf = answer
+        dist, radiance, pdf = answer[:3]
         hit = np.nonzero((pdf > 0.0) & (largest(radiance) > 0.0))[0]
         if index is not None:  # times the probability of choosing the light there
             pdf[hit] *= lights.selection(p[rows[hit]], ns[rows[hit]], np.full(len(hit), index))
-        seen, _, tint = tracer.visible_through(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], None,
+        # a light on geometry: the shadow ray stops off its surface, as the light samples' do
+        on_geometry = answer[3][hit] if len(answer) > 3 else None
+        seen, _, tint = tracer.visible_through(p[rows[hit]], ng[rows[hit]], w[hit], dist[hit], on_geometry,
                                                origin[owner[rows[hit]]], tinted=True)
         hit = hit[seen]
         light_in = f_cos_pdf[hit] * radiance[hit] * power_heuristic(p_lobe[hit], pdf[hit])[:, None]

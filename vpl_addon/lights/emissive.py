@@ -77,21 +77,26 @@ class EmissiveTriangles(Light):
         return wi, dist, weight, self.normals[idx]
 
     def mis(self, p, n, w):
-        """(distance, radiance, pdf) of the nearest of the triangles along each ray from p along w
-        (``Light.mis``): its radiance (the mean ``_sample_incident`` weighs) and p(triangle) / Omega, the pdf of
-        drawing w toward it; 0 where the ray meets none. The rays leave p pushed off its surface along n, to the
-        side w leaves by (``Tracer.offset_origin``), so a point of a glowing surface does not find itself."""
+        """(distance, radiance, pdf, normal) of the nearest of the triangles along each ray from p along w
+        (``Light.mis``): its radiance (the mean ``_sample_incident`` weighs), p(triangle) / Omega, the pdf of
+        drawing w toward it, and its normal; 0 where the ray meets none. The rays leave p pushed off its surface
+        along n, to the side w leaves by (``Tracer.offset_origin``), so a point of a glowing surface does not find
+        itself."""
         with self._building:
             if self._tracer is None:
                 self._tracer = Tracer(self.triangles, threads=1)
         side = np.where((np.einsum("ij,ij->i", n, w) >= 0.0)[:, None], n, -n)
-        hits = self._tracer.intersect(self._tracer.offset_origin(p, side), w)
+        origin = self._tracer.offset_origin(p, side)
+        hits = self._tracer.intersect(origin, w)
         rows = np.nonzero(hits.hit)[0]
         dist, radiance, pdf = np.full(len(p), np.inf), np.zeros((len(p), 3)), np.zeros(len(p))
+        normal = np.zeros((len(p), 3))
         idx = hits.prim[rows]
-        dist[rows], radiance[rows] = hits.t[rows], self.radiance[idx]
-        _triangle_pdfs(np.asarray(p, np.float64)[rows], idx, self.triangles, self.prob, pdf, rows)
-        return dist, radiance, pdf
+        at = np.asarray(p, np.float64)[rows]
+        dist[rows] = _to_plane(at, w[rows], origin[rows], hits.t[rows], self.triangles[idx, 0], self.normals[idx])
+        radiance[rows], normal[rows] = self.radiance[idx], self.normals[idx]
+        _triangle_pdfs(at, idx, self.triangles, self.prob, pdf, rows)
+        return dist, radiance, pdf, normal
 
     def emit(self, count, rng, center, radius):
         idx = sample_cdf(self.cdf, rng.random(count))
@@ -104,6 +109,18 @@ class EmissiveTriangles(Light):
         power = self.radiance[idx] * (2.0 * np.pi * self.areas[idx] / np.maximum(self.prob[idx], 1e-300))[:, None]
         origins = origins + side * (1e-7 * max(radius, 1e-30))
         return origins, dirs, power
+
+
+def _to_plane(p, w, origin, t, corner, normal):
+    """(N,) the distance from p along w to the plane of the triangle (a corner and its unit normal) the ray from the
+    pushed ``origin`` met at ``t``, in double precision: p + w dist lies on the light's surface, where a shadow ray
+    stops off it (``Tracer.visible_through``'s target normal). Taken as t from the pushed origin, it lay off the
+    surface by the push (extent / 65536), farther than the shadow ray's margin: a glowing sphere hid itself from
+    the rays that grazed it. A ray along the plane keeps the pushed origin's distance."""
+    across = np.einsum("ij,ij->i", w, normal)
+    height = np.einsum("ij,ij->i", corner - p, normal)
+    flat = np.abs(across) < 1e-9
+    return np.where(flat, t + np.einsum("ij,ij->i", origin - p, w), height / np.where(flat, 1.0, across))
 
 
 def _emission(scene) -> np.ndarray:

@@ -66,8 +66,10 @@ class Light:
     def mis(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
         """What a ray from points p (shading normals n) along unit directions w finds of the light, for multiple
         importance sampling of a glossy lobe against ``sample_incident``: (distance (P,), emitted radiance (P,3),
-        the solid-angle pdf of ``sample_incident`` choosing w (P,)), radiance and pdf 0 where the ray misses it.
-        None for a light that cannot say: its samples keep their full weight and lobe samples ignore it."""
+        the solid-angle pdf of ``sample_incident`` choosing w (P,)), radiance and pdf 0 where the ray misses it;
+        a light that is scene geometry (an emissive mesh) adds the normal (P,3) of the surface each ray finds, so
+        the shadow ray toward it stops off that surface (``Tracer.visible_through``'s target normal). None for a
+        light that cannot say: its samples keep their full weight and lobe samples ignore it."""
         return None
 
     def seen(self, origins: np.ndarray, dirs: np.ndarray):
