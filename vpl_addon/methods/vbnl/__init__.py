@@ -47,7 +47,7 @@ from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
 from . import virtual_light_sampling
-from .photon_lights import ALPHA, SECTORS, SLAB, PhotonLights, Splitting
+from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, lid_heights
 from .sample_elimination import MODES, eliminate
 
 PATHS_PER_BATCH = 1 << 16
@@ -214,7 +214,8 @@ def _dropped_shares(lights, which, scene, tracer, per_light, rng):
         rows = np.nonzero(hits.hit)[0]
         y = shade(scene, -n, hits, rows)
         slope = np.abs(dot(y.geometric_normal, n[rows]))
-        mine = lights.share_of(y.position, y.shading_normal, j[rows]) * (largest(y.albedo) > 0.0)
+        lids = lid_heights(tracer, y.position, y.geometric_normal, LID * float(r.max()))
+        mine = lights.share_of(y.position, y.shading_normal, j[rows], lids) * (largest(y.albedo) > 0.0)
         area += np.bincount(k[rows], mine * np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3), len(which))
         found += np.bincount(k[rows], mine > 0.0, len(which))
     return area, found
@@ -317,9 +318,10 @@ def _ahead(jobs, executor, depth: int):
 
 def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
     """(N, bounces, 3) photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the
-    lights covering them, kept apart by bounce, split over the tracer's threads a batch at a time (or, with many
-    lights, as many batches at a time as make ``Splitting.points`` photons); a ``checkpoint`` of the tracer after
-    each batch."""
+    lights covering them (not those under a lid, ``photon_lights.LID``), kept apart by bounce, split over the
+    tracer's threads a batch at a time (or, with many lights, as many batches at a time as make
+    ``Splitting.points`` photons); a ``checkpoint`` of the tracer after each batch."""
+    reach = LID * float(lights.radius.max()) if len(lights) else 0.0
     with ThreadPoolExecutor(tracer.threads) as pool:
         splitting = Splitting(lights, bounces, 3, pool, tracer.threads)
         held = []
@@ -329,7 +331,8 @@ def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
             if held and (photons is None or sum(map(len, held)) >= splitting.points):
                 photons = VirtualLights.concat(held)
                 held = []
-                splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1)
+                splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
+                              lid_heights(tracer, photons.position, photons.normal, reach))
             tracer.checkpoint()
     return splitting.total()
 
