@@ -349,8 +349,8 @@ def _covering(p, n, lid, s, grid, found, weight):
         d2 = dx * dx + dy * dy + dz * dz
         found[k] = j
         weight[k] = max(1.0 - d2 / r2, 1e-12)  # the rim still counts
-        inside = (d2 <= r2) & (n[0] * nx + n[1] * ny + n[2] * nz > 0.0) & (abs(dx * nx + dy * ny + dz * nz) <= SLAB * r) \
-            & (lid >= LID * r)
+        inside = (d2 <= r2) & (n[0] * nx + n[1] * ny + n[2] * nz > 0.0) \
+            & (abs(dx * nx + dy * ny + dz * nz) <= SLAB * r) & (lid >= LID * r)
         if inside and discs[j, 7] != 0.0:  # a branch, but only for the few lights that hold the point
             inside = _within_reach(dx, dy, dz, discs[j], reach[j])
         k += inside
