@@ -21,17 +21,18 @@ import bpy
 import numpy as np
 from mathutils import Matrix
 
-from . import cornell_measured, gltf_scenes, mitsuba
+from . import blender_imports, cornell_measured, mitsuba
 from .wavefront import read_obj
 
 FINGERPRINT_KEY = "vpl_gi_scene_fingerprint"
 C = np.array([[1.0, 0, 0, 0], [0, 0, -1.0, 0], [0, 1.0, 0, 0], [0, 0, 0, 1.0]])
 CAMERA_FLIP = np.diag([-1.0, 1.0, -1.0, 1.0])
-SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "gltf_scenes.py", "shared_scenes.py")
+SOURCES = ("mitsuba.py", "cornell_measured.py", "wavefront.py", "blender_imports.py", "shared_scenes.py")
 
 # name -> (folder under ../shared/scenes, file inside it, parser). "mitsuba-diffuse": every BSDF made Lambertian
 # with its base colour (checkerboards by their mean colour), the variant on which VPL GI's diffuse-only methods and
-# Cycles solve the same light transport. "gltf": imported by Blender's glTF importer and staged by ``gltf_scenes``.
+# Cycles solve the same light transport. "import": imported by Blender's own importer (glTF,
+# USD, OBJ) and staged by ``blender_imports``.
 SCENES = {
     "cornell_measured": ("cornell_box_measured", cornell_measured.DATA, "cornell"),
     "cornell_bitterli": ("cornell_box_bitterli", "scene.xml", "mitsuba"),
@@ -40,8 +41,10 @@ SCENES = {
     "veach_ajar": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba"),
     "veach_ajar_diffuse": ("veach_ajar_bitterli_partial", "scene.xml", "mitsuba-diffuse"),
     "living_room": ("living_room_bitterli", "scene.xml", "mitsuba"),
-    "helmet_hdri": ("damaged_helmet_khronos", "DamagedHelmet.gltf", "gltf"),
-    "hotel_room": ("hotel_room_openshaw", "hotel_room.glb", "gltf"),
+    "helmet_hdri": ("damaged_helmet_khronos", "DamagedHelmet.gltf", "import"),
+    "hotel_room": ("hotel_room_openshaw", "hotel_room.glb", "import"),
+    "cornell_usd": ("cornell_box_usd", "cornell-box_usdpreviewsurface.usda", "import"),
+    "cornell_obj": ("cornell_box_mcguire", "CornellBox-Original.obj", "import"),
 }
 REFERENCE_IMAGES = {"cornell_bitterli": "TungstenRender.exr", "veach_bidir": "TungstenRender.exr",
                     "veach_mis": "TungstenRender.exr"}
@@ -445,9 +448,9 @@ def convert(source_dir: str, name: str, out_path: str, width: int = mitsuba.DEFA
     stamp = fingerprint(source_dir, name, width)
     if not force and stored_fingerprint(out_path) == stamp:
         return False, []
-    if SCENES[name][2] == "gltf":
-        scene = _reset(width, round(width * gltf_scenes.ASPECT[name]), 64, 8)
-        warnings = gltf_scenes.build(scene, source_dir, name)
+    if SCENES[name][2] == "import":
+        scene = _reset(width, round(width * blender_imports.ASPECT[name]), 64, 8)
+        warnings = blender_imports.build(scene, source_dir, name)
     else:
         scene, warnings = build(load(source_dir, name, width))
     scene[FINGERPRINT_KEY] = stamp

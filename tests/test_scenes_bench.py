@@ -21,8 +21,8 @@ from conftest import ROOT, pass_errors, run_cli
 
 SHARED = ROOT.parent / "shared" / "scenes"
 SCENES = ("cornell_measured", "cornell_bitterli", "veach_bidir", "veach_ajar", "veach_ajar_diffuse", "living_room",
-          "helmet_hdri", "hotel_room", "veach_mis")
-EXACT = {"cornell_measured", "cornell_bitterli", "veach_ajar_diffuse", "hotel_room"}
+          "helmet_hdri", "hotel_room", "veach_mis", "cornell_usd", "cornell_obj")
+EXACT = {"cornell_measured", "cornell_bitterli", "veach_ajar_diffuse", "hotel_room", "cornell_usd", "cornell_obj"}
 # no 1024-spp image of the helmet's caustics is converged (Cycles' Diffuse Indirect rMAE rises from 4 to 64 spp)
 CAUSTIC = {"helmet_hdri"}
 KNOWN: dict[tuple[str, str], str] = {}  # (scene, method) -> reason; vbnl's living-room leak is fixed (SLAB)

@@ -1,6 +1,6 @@
-"""Blender scenes built around the public glTF assets and HDR of ../shared/scenes, imported with Blender's own glTF
-importer (``bpy.ops.import_scene.gltf``, shipped with ``bpy``) exactly as a user would, then given the camera,
-lights and world the assets lack.
+"""Blender scenes built around the public assets of ../shared/scenes that Blender's own importers read (glTF, USD,
+OBJ + MTL, all shipped with ``bpy``), imported exactly as a user would, then given the camera, lights and world the
+assets lack.
 
 - ``helmet_hdri``: Khronos' DamagedHelmet (base colour, normal, metallic-roughness, emissive and occlusion maps) on a
   16 x 16 m grey ground under Poly Haven's Kloppenheim 05 HDR (a strong sun high in the sky), seen from the front
@@ -8,6 +8,12 @@ lights and world the assets lack.
 - ``hotel_room``: Aaron Openshaw's hotel room (CC BY 4.0; 99K triangles in millimetres, scaled to metres; base-colour
   textures), a closed bedroom lit by a ceiling panel (an area light) and a bedside lamp (a sphere light), seen from the
   entrance corner towards the bed and the window wall. The world is black: no light enters the closed room.
+- ``cornell_usd``: Pablo Delgado Kramer's Cornell box as a USD stage (``bpy.ops.wm.usd_import``: UsdPreviewSurface
+  materials become Principled BSDFs, the stage's camera comes along), lit by its ceiling lamp, a glowing quad 1 mm
+  under the ceiling.
+- ``cornell_obj``: McGuire's CornellBox-Original OBJ + MTL (``bpy.ops.wm.obj_import``: the lamp an emissive ``Ke``
+  material, a glowing quad 1 cm under the ceiling), seen by a camera placed as the original's (35 mm lens, 25 mm
+  film, in front of the open side). Both worlds black.
 """
 from __future__ import annotations
 
@@ -20,10 +26,16 @@ HDRI = os.path.join("hdri_polyhaven", "kloppenheim_05_1k.hdr")
 
 
 def _import(path: str) -> list:
+    """The objects Blender's importer for ``path``'s kind of file (glTF, USD, OBJ) brings in."""
     if not os.path.isfile(path):
-        raise FileNotFoundError(f"{path}: the glTF file is missing")
+        raise FileNotFoundError(f"{path}: the file to import is missing")
     before = set(bpy.data.objects)
-    bpy.ops.import_scene.gltf(filepath=path)
+    if path.endswith((".usda", ".usdc", ".usd")):
+        bpy.ops.wm.usd_import(filepath=path)
+    elif path.endswith(".obj"):
+        bpy.ops.wm.obj_import(filepath=path)
+    else:
+        bpy.ops.import_scene.gltf(filepath=path)
     return [o for o in bpy.data.objects if o not in before]
 
 
@@ -34,9 +46,9 @@ def _bounds(objects) -> tuple[Vector, Vector]:
     return lo, hi
 
 
-def _camera(scene, location: Vector, target: Vector, lens: float = 50.0) -> None:
+def _camera(scene, location: Vector, target: Vector, lens: float = 50.0, sensor: float = 36.0) -> None:
     data = bpy.data.cameras.new("Camera")
-    data.lens = lens
+    data.lens, data.sensor_width = lens, sensor
     cam = bpy.data.objects.new("Camera", data)
     cam.location = location
     cam.rotation_euler = (target - location).to_track_quat("-Z", "Y").to_euler()
@@ -114,8 +126,24 @@ def hotel_room(scene, source_dir: str, warnings: list) -> None:
     _camera(scene, Vector((7.3, 10.7, 1.7)), Vector((12.0, 7.0, 0.7)), lens=20.0)
 
 
-BUILDERS = {"helmet_hdri": helmet_hdri, "hotel_room": hotel_room}
-ASPECT = {"helmet_hdri": 1.0, "hotel_room": 0.75}  # height / width of each scene's frame
+def cornell_usd(scene, source_dir: str, warnings: list) -> None:
+    objects = _import(os.path.join(source_dir, "cornell_box_usd", "cornell-box_usdpreviewsurface.usda"))
+    cameras = [o for o in objects if o.type == "CAMERA"]
+    if not cameras:
+        raise ValueError("cornell_box_usd: the stage holds no camera")
+    scene.camera = cameras[0]
+    _black_world(scene)
+
+
+def cornell_obj(scene, source_dir: str, warnings: list) -> None:
+    _import(os.path.join(source_dir, "cornell_box_mcguire", "CornellBox-Original.obj"))  # Y up -> Blender's Z up
+    _black_world(scene)
+    _camera(scene, Vector((0.0, -3.9, 1.0)), Vector((0.0, 0.0, 1.0)), lens=35.0, sensor=25.0)
+
+
+BUILDERS = {"helmet_hdri": helmet_hdri, "hotel_room": hotel_room, "cornell_usd": cornell_usd,
+            "cornell_obj": cornell_obj}
+ASPECT = {"helmet_hdri": 1.0, "hotel_room": 0.75, "cornell_usd": 1.0, "cornell_obj": 1.0}  # height / width
 
 
 def build(scene, source_dir: str, name: str) -> list[str]:
