@@ -84,10 +84,11 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     mat = scene.material[prim]
     m = scene.materials
     inputs = _inputs(scene, mat, prim, bary, ns)
-    f0, eta = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
-    tint, f0, eta = m.specular_tint.astype(np.float64)[mat], f0[mat], eta[mat]  # per point from here
+    layer = (m.specular_tint.astype(np.float64),
+             *specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64)))  # per material: tint, F0, IOR
+    tint, f0, eta = (a[mat] for a in layer)  # per point from here
     if m.mix_other is not None:
-        _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta)
+        _blend(scene, mat, prim, bary, ns, inputs, layer, tint, f0, eta)
     incident = dirs[rows]
     smooth, normal = np.empty((len(prim), 3)), np.empty((len(prim), 3))
     _turned(incident, ng, ns, inputs["normal"], smooth, normal)  # toward the ray after the normal map, as Cycles
@@ -146,14 +147,15 @@ def _lobes(tint, f0, glass, base, metal, metallic, eta, edges, dielectric, below
             below[i, c] = (1.0 - metallic[i]) * b
 
 
-def _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta):
+def _blend(scene, mat, prim, bary, ns, inputs, layer, tint, f0, eta):
     """A Mix Shader's two sides at the points of materials that mix (``Materials.mix_other``), in place, by the
     mix's factor f (or its map) at each point: the colours, Metallic, emission and normal blended, (1 - f) the
     material's own row's + f the other's (the normal made unit again), which is exact for the diffuse lobe; the
     glossy lobe's shape (roughness, Specular Tint, layer F0 and IOR) drawn whole from one side, the other's with
     probability f by a number hashed from the point (``_hashed``), so that two lobes of different roughness
     are their sum in expectation, as Cycles sums them (their blend was up to 50 % bright on a highlight's flank;
-    bench/README.md, twenty-seventh session)."""
+    bench/README.md, twenty-seventh session). ``layer``: every material's (Specular Tint, layer F0, IOR), whose
+    rows the points ``tint``, ``f0`` and ``eta`` take."""
     m = scene.materials
     other = m.mix_other[mat]
     rows = np.nonzero(other >= 0)[0]
@@ -174,9 +176,8 @@ def _blend(scene, mat, prim, bary, ns, inputs, tint, f0, eta):
     normal[rows] = normalize(normal[rows])
     drawn = np.nonzero(_hashed(prim[rows], bary[rows]) < f)[0]  # the points whose lobe is the other side's
     at, theirs = rows[drawn], other[rows[drawn]]
-    f0_all, eta_all = specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64))
     inputs["roughness"][at] = second["roughness"][drawn]
-    tint[at], f0[at], eta[at] = m.specular_tint.astype(np.float64)[theirs], f0_all[theirs], eta_all[theirs]
+    tint[at], f0[at], eta[at] = (a[theirs] for a in layer)
 
 
 def _hashed(prim: np.ndarray, bary: np.ndarray) -> np.ndarray:
