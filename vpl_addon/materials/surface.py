@@ -22,10 +22,8 @@ from ..core.color import largest
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take, take_fields
-from .microfacet import dielectric_fresnel, edge, layer_albedo, smith_g1, specular_layer
+from .microfacet import ROUGH_COAT, dielectric_fresnel, edge, layer_albedo, smith_g1, specular_layer
 from .textures import at_points, lookup
-
-ROUGH_COAT = 0.5  # Roughness from which a dielectric layer counts as a rough coat (``Surface.rough_coat``)
 
 
 @dataclass
