@@ -42,7 +42,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ..core.color import largest
-from ..core.compiled import kernel
+from ..core.compiled import inline, kernel
 from ..core.rows import concat_fields, take_fields
 from ..core.sampling import basis, dot, stratified_2d
 
@@ -376,31 +376,55 @@ def albedo_table(roughness: float) -> tuple[np.ndarray, np.ndarray, float]:
     return _at_roughness(e, roughness), _at_roughness(s, roughness), float(_at_roughness(e_avg, roughness))
 
 
+@inline
+def _tables_at(e_tab, e_avg_tab, s_tab, r, m):
+    """(E, s, E_avg) at roughness ``r`` and view cosine ``m``: E and s read bilinearly from their (roughness, mu)
+    tables, E_avg linearly at r, E at least 1e-6. A NaN roughness or cosine reads the tables' first entries, not
+    memory outside them."""
+    r, m = r if r == r else 0.0, m if m == m else 0.0
+    x = min(max(r, 0.0), 1.0) * (TABLE_ROUGHNESS - 1)
+    i = min(int(np.floor(x)), TABLE_ROUGHNESS - 2)
+    fx = x - i
+    y = min(max(min(max(m, 0.0), 1.0) * TABLE_MU - 0.5, 0.0), TABLE_MU - 1)
+    j = min(int(np.floor(y)), TABLE_MU - 2)
+    fy = y - j
+    e = (e_tab[i, j] * (1 - fx) + e_tab[i + 1, j] * fx) * (1 - fy) + \
+        (e_tab[i, j + 1] * (1 - fx) + e_tab[i + 1, j + 1] * fx) * fy
+    s = (s_tab[i, j] * (1 - fx) + s_tab[i + 1, j] * fx) * (1 - fy) + \
+        (s_tab[i, j + 1] * (1 - fx) + s_tab[i + 1, j + 1] * fx) * fy
+    return max(e, 1e-6), s, e_avg_tab[i] * (1.0 - fx) + e_avg_tab[i + 1] * fx
+
+
+@inline
+def _kulla_conty(e, s, e_avg, f_avg, f):
+    """(1 + F_ms (1 - E) / E, (E + F_ms (1 - E)) (f + (1 - f) s)) of one channel, F_ms = F_avg E_avg / (1 - F_avg
+    (1 - E_avg))."""
+    f_ms = f_avg * e_avg / max(1.0 - f_avg * (1.0 - e_avg), 1e-6)
+    return 1.0 + f_ms * (1.0 - e) / e, (e + f_ms * (1.0 - e)) * (f + (1.0 - f) * s)
+
+
 @kernel
 def _compensated(e_tab, e_avg_tab, s_tab, roughness, mu, f_avg, f, scale, color):
-    """Per row: Kulla and Conty's compensation ``scale`` = 1 + F_ms (1 - E) / E, with F_ms = F_avg E_avg / (1 - F_avg
-    (1 - E_avg)), and ``color`` = (E + F_ms (1 - E)) (f + (1 - f) s): E and s looked up at (roughness, mu) in their
-    (roughness, mu) tables, bilinearly, and E_avg linearly at roughness, in one pass (the numpy lookups were a tenth
-    of the hotel room's time). A NaN roughness or cosine reads the tables' first entries, not memory outside them."""
+    """Per row: Kulla and Conty's compensation ``scale`` and ``color`` (``_kulla_conty``) with E, s and E_avg at the
+    row's roughness and view cosine (``_tables_at``), in one pass (the numpy lookups were a tenth of the hotel room's
+    time)."""
     for k in range(len(roughness)):
-        r, m = roughness[k], mu[k]
-        r, m = r if r == r else 0.0, m if m == m else 0.0
-        x = min(max(r, 0.0), 1.0) * (TABLE_ROUGHNESS - 1)
-        i = min(int(np.floor(x)), TABLE_ROUGHNESS - 2)
-        fx = x - i
-        y = min(max(min(max(m, 0.0), 1.0) * TABLE_MU - 0.5, 0.0), TABLE_MU - 1)
-        j = min(int(np.floor(y)), TABLE_MU - 2)
-        fy = y - j
-        e = (e_tab[i, j] * (1 - fx) + e_tab[i + 1, j] * fx) * (1 - fy) + \
-            (e_tab[i, j + 1] * (1 - fx) + e_tab[i + 1, j + 1] * fx) * fy
-        s = (s_tab[i, j] * (1 - fx) + s_tab[i + 1, j] * fx) * (1 - fy) + \
-            (s_tab[i, j + 1] * (1 - fx) + s_tab[i + 1, j + 1] * fx) * fy
-        e_avg = e_avg_tab[i] * (1.0 - fx) + e_avg_tab[i + 1] * fx
-        e = max(e, 1e-6)
+        e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, roughness[k], mu[k])
         for c in range(3):
-            f_ms = f_avg[k, c] * e_avg / max(1.0 - f_avg[k, c] * (1.0 - e_avg), 1e-6)
-            scale[k, c] = 1.0 + f_ms * (1.0 - e) / e
-            color[k, c] = (e + f_ms * (1.0 - e)) * (f[k, c] + (1.0 - f[k, c]) * s)
+            scale[k, c], color[k, c] = _kulla_conty(e, s, e_avg, f_avg[k, c], f[k, c])
+
+
+@kernel
+def _layer_compensated(e_tab, e_avg_tab, s_tab, s_ss, rows, roughness, mu, f0t, scale, color):
+    """``_compensated`` of the dielectric layer at the points ``rows``: f = F0 x tint clamped to [0, 1] and F_avg =
+    mix(f, 1, ``s_ss``), without copies of the rows (the layer's numpy arithmetic was a tenth of a render on walls
+    of the Principled BSDF's default Specular)."""
+    for i in range(len(rows)):
+        k = rows[i]
+        e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, roughness[k], mu[k])
+        for c in range(3):
+            f = min(max(f0t[k, c], 0.0), 1.0)
+            scale[k, c], color[k, c] = _kulla_conty(e, s, e_avg, f + (1.0 - f) * s_ss, f)
 
 
 def _compensation(s_tab, roughness, mu, f_avg, f) -> "Compensation":
@@ -430,18 +454,19 @@ def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.nd
 def _dielectric_compensation(roughness, f0t, eta, mu) -> Compensation:
     """The dielectric layer's compensation and albedo A (its Glossy Color per unit weight); zero colour and unit
     scale where eta is 1 (no layer). ``f0t`` is F0 x tint, clamped to [0, 1] here as Cycles does."""
-    f0t = np.clip(np.asarray(f0t, np.float64), 0.0, 1.0)
     eta = np.asarray(eta, np.float64)
-    scale, color = np.ones_like(f0t), np.zeros_like(f0t)
+    scale, color = np.ones((len(eta), 3)), np.zeros((len(eta), 3))
     layered = np.nonzero(eta != 1.0)[0]
-    key = np.round(eta[layered], ETA_DIGITS)
-    one = len(key) and key.min() == key.max()  # the usual case (one IOR): no sort of the keys
-    for value in key[:1] if one else np.unique(key):
-        rows = layered if one else layered[key == value]
+    if len(layered) == 0:
+        return Compensation(scale, color)
+    lo, hi = np.round([eta[layered].min(), eta[layered].max()], ETA_DIGITS)
+    key = None if lo == hi else np.round(eta[layered], ETA_DIGITS)  # the usual case (one IOR): no keys to sort
+    e_tab, _, e_avg_tab = _metal_tables()
+    arrays = tuple(np.ascontiguousarray(a, np.float64) for a in (roughness, mu, f0t))
+    for value in [lo] if key is None else np.unique(key):
         s_bar_tab, s_ss = _dielectric_tables(float(value))
-        f = f0t[rows]
-        comp = _compensation(s_bar_tab, roughness[rows], mu[rows], f + (1.0 - f) * s_ss, f)
-        scale[rows], color[rows] = comp.scale, comp.color
+        _layer_compensated(e_tab, e_avg_tab, s_bar_tab, s_ss, layered if key is None else layered[key == value],
+                           *arrays, scale, color)
     return Compensation(scale, color)
 
 
