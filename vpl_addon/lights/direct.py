@@ -133,6 +133,8 @@ def _lobe_samples(shine, at, lights, tracer, glossy, rng):
     geometric surface)."""
     lo, hi, owner, origin, p, ng, ns, _ = at
     rows = np.nonzero(glossy.present[owner + lo] & ~glossy.broad[owner + lo])[0]
+    if len(rows) == 0:
+        return
     p, ng, ns = p[owner], ng[owner], ns[owner]  # each light sample's point
     u1, u2 = (u.ravel()[rows] for u in stratified_2d(hi - lo, len(owner) // (hi - lo), rng))  # a net per point
     w, f_cos_pdf, p_lobe = glossy.sample(u1, u2, owner[rows] + lo)
