@@ -414,17 +414,37 @@ def _compensated(e_tab, e_avg_tab, s_tab, roughness, mu, f_avg, f, scale, color)
             scale[k, c], color[k, c] = _kulla_conty(e, s, e_avg, f_avg[k, c], f[k, c])
 
 
+@inline
+def _layer_row(e_tab, e_avg_tab, s_tab, s_ss, r, m, f0t, scale, color):
+    """``_kulla_conty`` of the dielectric layer at one point into ``scale`` and ``color`` (3,): f = F0 x tint
+    ``f0t`` (3,) clamped to [0, 1], F_avg = mix(f, 1, ``s_ss``)."""
+    e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, r, m)
+    for c in range(3):
+        f = min(max(f0t[c], 0.0), 1.0)
+        scale[c], color[c] = _kulla_conty(e, s, e_avg, f + (1.0 - f) * s_ss, f)
+
+
 @kernel
 def _layer_compensated(e_tab, e_avg_tab, s_tab, s_ss, rows, roughness, mu, f0t, scale, color):
-    """``_compensated`` of the dielectric layer at the points ``rows``: f = F0 x tint clamped to [0, 1] and F_avg =
-    mix(f, 1, ``s_ss``), without copies of the rows (the layer's numpy arithmetic was a tenth of a render on walls
-    of the Principled BSDF's default Specular)."""
+    """``_layer_row`` at the points ``rows``, without copies of the rows (the layer's numpy arithmetic was a tenth
+    of a render on walls of the Principled BSDF's default Specular)."""
     for i in range(len(rows)):
         k = rows[i]
-        e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, roughness[k], mu[k])
+        _layer_row(e_tab, e_avg_tab, s_tab, s_ss, roughness[k], mu[k], f0t[k], scale[k], color[k])
+
+
+@kernel
+def _below_layer(e_tab, e_avg_tab, s_tab, s_ss, rows, roughness, normal, incident, f0t, below):
+    """``below`` at the points ``rows`` times 1 - max(A), clamped to [0, 1], with A the layer's albedo (``_layer_row``)
+    at mu = clamp(-normal . incident, 0, 1)."""
+    scale, color = np.empty(3), np.empty(3)
+    for i in range(len(rows)):
+        k = rows[i]
+        mu = -(normal[k, 0] * incident[k, 0] + normal[k, 1] * incident[k, 1] + normal[k, 2] * incident[k, 2])
+        _layer_row(e_tab, e_avg_tab, s_tab, s_ss, roughness[k], min(max(mu, 0.0), 1.0), f0t[k], scale, color)
+        keep = min(max(1.0 - max(color[0], color[1], color[2]), 0.0), 1.0)
         for c in range(3):
-            f = min(max(f0t[k, c], 0.0), 1.0)
-            scale[k, c], color[k, c] = _kulla_conty(e, s, e_avg, f + (1.0 - f) * s_ss, f)
+            below[k, c] *= keep
 
 
 def _compensation(s_tab, roughness, mu, f_avg, f) -> "Compensation":
@@ -451,23 +471,38 @@ def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.nd
     return _compensation(_metal_tables()[1], roughness, mu, f_avg, f0)
 
 
+def _by_eta(eta: np.ndarray):
+    """(rows, s_bar table, s of F_ss_real) per relative IOR among the points whose ``eta`` is not 1 (a layer), the IORs
+    rounded to ``ETA_DIGITS`` decimals (``_dielectric_tables``); one group in the usual case without sorting keys."""
+    layered = np.nonzero(eta != 1.0)[0]
+    if len(layered) == 0:
+        return
+    lo, hi = np.round([eta[layered].min(), eta[layered].max()], ETA_DIGITS)
+    key = None if lo == hi else np.round(eta[layered], ETA_DIGITS)
+    for value in [lo] if key is None else np.unique(key):
+        yield (layered if key is None else layered[key == value], *_dielectric_tables(float(value)))
+
+
 def _dielectric_compensation(roughness, f0t, eta, mu) -> Compensation:
     """The dielectric layer's compensation and albedo A (its Glossy Color per unit weight); zero colour and unit
     scale where eta is 1 (no layer). ``f0t`` is F0 x tint, clamped to [0, 1] here as Cycles does."""
     eta = np.asarray(eta, np.float64)
     scale, color = np.ones((len(eta), 3)), np.zeros((len(eta), 3))
-    layered = np.nonzero(eta != 1.0)[0]
-    if len(layered) == 0:
-        return Compensation(scale, color)
-    lo, hi = np.round([eta[layered].min(), eta[layered].max()], ETA_DIGITS)
-    key = None if lo == hi else np.round(eta[layered], ETA_DIGITS)  # the usual case (one IOR): no keys to sort
     e_tab, _, e_avg_tab = _metal_tables()
     arrays = tuple(np.ascontiguousarray(a, np.float64) for a in (roughness, mu, f0t))
-    for value in [lo] if key is None else np.unique(key):
-        s_bar_tab, s_ss = _dielectric_tables(float(value))
-        _layer_compensated(e_tab, e_avg_tab, s_bar_tab, s_ss, layered if key is None else layered[key == value],
-                           *arrays, scale, color)
+    for rows, s_bar_tab, s_ss in _by_eta(eta):
+        _layer_compensated(e_tab, e_avg_tab, s_bar_tab, s_ss, rows, *arrays, scale, color)
     return Compensation(scale, color)
+
+
+def scale_below_layer(below: np.ndarray, roughness, f0t, eta, normal, incident) -> None:
+    """Scales the diffuse albedo ``below`` (K,3) in place by 1 - max(A) where the points have a layer (eta not 1),
+    A its albedo (``layer_albedo``) seen along ``incident`` (K,3) at shading normals ``normal``: in one pass, the
+    layer's rows not copied."""
+    e_tab, _, e_avg_tab = _metal_tables()
+    arrays = tuple(np.ascontiguousarray(a, np.float64) for a in (roughness, normal, incident, f0t))
+    for rows, s_bar_tab, s_ss in _by_eta(np.asarray(eta, np.float64)):
+        _below_layer(e_tab, e_avg_tab, s_bar_tab, s_ss, rows, *arrays, below)
 
 
 def layer_albedo(roughness: np.ndarray, f0t: np.ndarray, eta: np.ndarray, mu: np.ndarray) -> np.ndarray:
@@ -497,25 +532,25 @@ class GlossyLobe:
     color: np.ndarray  # (K,3) Cycles' Glossy Color
 
     @staticmethod
-    def of(surface) -> "GlossyLobe":
-        view = -surface.incident
-        k = len(surface.metallic)
-        weight, color, layer = np.zeros((k, 3)), np.zeros((k, 3)), np.zeros((k, 3))
-        mu = dot(surface.shading_normal, view)
-        shiny = np.nonzero(surface.metallic > 0.0)[0]
+    def of(surface, rows: np.ndarray | None = None) -> "GlossyLobe":
+        """The lobes of a ``Surface``'s points, or of its points ``rows`` (the fields the lobe reads, not a copy of
+        the whole surface)."""
+        fields = ("incident", "shading_normal", "metallic", "roughness", "specular", "edge", "dielectric", "eta")
+        incident, normal, metallic, roughness, specular, edge, dielectric, eta = \
+            (getattr(surface, f) if rows is None else getattr(surface, f)[rows] for f in fields)
+        view = -incident
+        weight, color = np.zeros((len(eta), 3)), np.zeros((len(eta), 3))
+        mu = dot(normal, view)
+        shiny = np.nonzero(metallic > 0.0)[0]
         if len(shiny):
-            comp = compensation(surface.roughness[shiny], surface.specular[shiny], surface.edge[shiny], mu[shiny])
-            m = surface.metallic[shiny, None]
+            comp = compensation(roughness[shiny], specular[shiny], edge[shiny], mu[shiny])
+            m = metallic[shiny, None]
             weight[shiny], color[shiny] = m * comp.scale, m * comp.color
-        coated = np.nonzero((surface.eta != 1.0) & (surface.metallic < 1.0))[0]
-        if len(coated):
-            comp = _dielectric_compensation(surface.roughness[coated], surface.dielectric[coated],
-                                            surface.eta[coated], mu[coated])
-            below = 1.0 - surface.metallic[coated, None]
-            layer[coated] = below * comp.scale
-            color[coated] += below * comp.color
-        return GlossyLobe(surface.shading_normal, view, alpha(surface.roughness), surface.specular, surface.edge,
-                          weight, np.clip(surface.dielectric, 0.0, 1.0), surface.eta, layer, color)
+        comp = _dielectric_compensation(roughness, dielectric, eta, mu)  # unit scale, no colour where eta is 1
+        below = np.where(eta != 1.0, 1.0 - metallic, 0.0)[:, None]
+        color += below * comp.color
+        return GlossyLobe(normal, view, alpha(roughness), specular, edge, weight, np.clip(dielectric, 0.0, 1.0), eta,
+                          below * comp.scale, color)
 
     @cached_property
     def present(self) -> np.ndarray:

@@ -18,11 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..core.color import largest
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take, take_fields
-from .microfacet import ROUGH_COAT, dielectric_fresnel, edge, layer_albedo, smith_g1, specular_layer
+from .microfacet import ROUGH_COAT, dielectric_fresnel, edge, scale_below_layer, smith_g1, specular_layer
 from .textures import at_points, lookup
 
 
@@ -101,11 +100,7 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
         metal = np.where(m.metal_color[mat] >= 0.0, m.metal_color[mat], base)
     edges, dielectric, below = (np.empty((len(prim), 3)) for _ in range(3))
     _lobes(tint, f0, m.glass[mat], base, metal, metallic, eta, edges, dielectric, below)
-    layered = np.nonzero(eta != 1.0)[0]
-    if len(layered):
-        mu = np.clip(-dot(normal[layered], incident[layered]), 0.0, 1.0)
-        a = layer_albedo(inputs["roughness"][layered], dielectric[layered], eta[layered], mu)
-        below[layered] *= np.clip(1.0 - largest(a), 0.0, 1.0)[:, None]
+    scale_below_layer(below, inputs["roughness"], dielectric, eta, normal, incident)
     return Surface(position=position, geometric_normal=ng, shading_normal=normal, prim=prim, material=mat,
                    albedo=below, roughness=inputs["roughness"], metallic=metallic, emission=inputs["emission"],
                    specular=metal, edge=edges, dielectric=dielectric, eta=eta, incident=incident, smooth_normal=smooth)

@@ -73,7 +73,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         weight = diffuse[keep] / choose_diffuse[keep, None]
         if glossy:
             shiny = np.nonzero(~keep & surf.glossy)[0]
-            lobe = GlossyLobe.of(surf.take(shiny))
+            lobe = GlossyLobe.of(surf, shiny)
             choose_glossy = np.minimum(largest(lobe.color), 1.0 - choose_diffuse[shiny])
             shiny_keep = u[shiny] < choose_diffuse[shiny] + choose_glossy
             lobe = lobe.take(shiny_keep)

@@ -98,7 +98,7 @@ def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.nda
     ``roulette`` on their throughput times their lobe's albedo (Glossy Color), their direct light through the lobe
     (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``, ``COAT_LIGHT_SAMPLES`` at a rough coat) added to
     ``out``."""
-    lobe = GlossyLobe.of(y.take(rows))
+    lobe = GlossyLobe.of(y, rows)
     live, boost = roulette(throughput[rows] * lobe.color, rng)
     rows, lobe = rows[live], lobe.take(live)
     metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe,
