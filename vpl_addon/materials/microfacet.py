@@ -465,10 +465,58 @@ class Compensation:
     color: np.ndarray  # (K,3) (E + F_ms (1 - E)) mix(F0, 1, s), without the metallic weight
 
 
+@inline
+def _f82_mean(f0, b):
+    """The cosine-weighted hemispherical mean of the F82-tint curve, F0 + (1 - F0) / 21 - b / 126 (unclamped), of
+    numbers or of arrays."""
+    return f0 + (1.0 - f0) / 21.0 - b / 126.0
+
+
 def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> Compensation:
     """The metallic lobe's compensation and Glossy Color at view cosines ``mu`` (per point, vectorised)."""
-    f_avg = np.clip(f0 + (1.0 - f0) / 21.0 - b / 126.0, 0.0, 1.0)  # hemispherical mean of the F82-tint curve
-    return _compensation(_metal_tables()[1], roughness, mu, f_avg, f0)
+    f0, b = (np.asarray(x, np.float64) for x in (f0, b))
+    return _compensation(_metal_tables()[1], roughness, mu, np.clip(_f82_mean(f0, b), 0.0, 1.0), f0)
+
+
+@kernel
+def _add_colors(e_tab, e_avg_tab, s_tab, s_ss, rows, slots, metallic, roughness, normal, incident, f0, edge, layer,
+                color):
+    """color[slots[i]] += the Glossy Color of point rows[i] (``GlossyLobe.color``) of one lobe: the metallic one
+    (``layer`` False: F82-tint with F0 ``f0`` and b ``edge``, weight Metallic) or the dielectric layer (``layer``
+    True: ``f0`` its F0 x tint, weight 1 - Metallic), seen from -``incident`` at shading normal ``normal``."""
+    scale, albedo = np.empty(3), np.empty(3)
+    for i in range(len(rows)):
+        k = rows[i]
+        weight = 1.0 - metallic[k] if layer else metallic[k]
+        if not weight > 0.0:
+            continue
+        mu = -(normal[k, 0] * incident[k, 0] + normal[k, 1] * incident[k, 1] + normal[k, 2] * incident[k, 2])
+        if layer:
+            _layer_row(e_tab, e_avg_tab, s_tab, s_ss, roughness[k], mu, f0[k], scale, albedo)
+        else:
+            e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, roughness[k], mu)
+            for c in range(3):
+                f_avg = min(max(_f82_mean(f0[k, c], edge[k, c]), 0.0), 1.0)
+                scale[c], albedo[c] = _kulla_conty(e, s, e_avg, f_avg, f0[k, c])
+        for c in range(3):
+            color[slots[i], c] += weight * albedo[c]
+
+
+def glossy_color(surface, rows: np.ndarray) -> np.ndarray:
+    """(R,3) Cycles' Glossy Color (``GlossyLobe.color``) of a ``Surface``'s points ``rows``, read where they are: what
+    Russian roulette weighs before a lobe is worth building for a point (``paths.vertices.at_metal``)."""
+    color = np.zeros((len(rows), 3))
+    e_tab, s_metal, e_avg_tab = _metal_tables()
+    metallic, roughness, normal, incident, specular, edge, dielectric = (
+        np.ascontiguousarray(getattr(surface, f), np.float64) for f in
+        ("metallic", "roughness", "shading_normal", "incident", "specular", "edge", "dielectric"))
+    rows = np.asarray(rows, np.int64)
+    _add_colors(e_tab, e_avg_tab, s_metal, 0.0, rows, np.arange(len(rows)), metallic, roughness, normal, incident,
+                specular, edge, False, color)
+    for group, s_bar_tab, s_ss in _by_eta(surface.eta[rows]):
+        _add_colors(e_tab, e_avg_tab, s_bar_tab, s_ss, rows[group], group, metallic, roughness, normal, incident,
+                    dielectric, edge, True, color)
+    return color
 
 
 def _by_eta(eta: np.ndarray):

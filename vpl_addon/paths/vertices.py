@@ -11,7 +11,7 @@ import numpy as np
 
 from ..core.sampling import cosine_hemisphere, dot, group_sum
 from ..lights.direct import direct_light
-from ..materials.microfacet import GlossyLobe
+from ..materials.microfacet import GlossyLobe, glossy_color
 from ..materials.surface import Surface, bump_factor
 
 # next-event samples at a metallic vertex a camera path extends to: light reaching a diffuse point over metal
@@ -98,9 +98,9 @@ def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.nda
     ``roulette`` on their throughput times their lobe's albedo (Glossy Color), their direct light through the lobe
     (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``, ``COAT_LIGHT_SAMPLES`` at a rough coat) added to
     ``out``."""
-    lobe = GlossyLobe.of(y, rows)
-    live, boost = roulette(throughput[rows] * lobe.color, rng)
-    rows, lobe = rows[live], lobe.take(live)
+    live, boost = roulette(throughput[rows] * glossy_color(y, rows), rng)
+    rows = rows[live]
+    lobe = GlossyLobe.of(y, rows)  # for the few the roulette leaves
     metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe,
                          None if branch is None else 2 * branch[rows] + 1)
     coat = metal.point.rough_coat
