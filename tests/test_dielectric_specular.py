@@ -247,6 +247,19 @@ def test_points_without_a_glossy_lobe_stay_black():
                                   0.0)
 
 
+def test_glossy_color_read_in_place_is_the_lobes():
+    """``glossy_color`` (what ``at_metal``'s Russian roulette weighs before building a lobe) gives the Glossy Color of
+    ``GlossyLobe.of`` at the same rows, to the bit: metals, layers of two IORs, both lobes mixed, and none, at
+    several roughnesses and view angles, rows in any order and repeated."""
+    parts = [_surface(3, 0.3, 0.8, metallic=1.0, f82=True), _surface(3, 0.7, 0.4, ior=1.45),
+             _surface(3, 0.5, 0.6, metallic=0.4, ior=2.0, level=0.8), _surface(3, 0.2, 0.9, level=0.0)]
+    surface = types.SimpleNamespace(**{f: np.concatenate([getattr(p, f) for p in parts]) for f in vars(parts[0])})
+    rows = np.array([11, 0, 4, 7, 4, 2, 9, 5, 10])
+    color = M.glossy_color(surface, rows)
+    np.testing.assert_array_equal(color, M.GlossyLobe.of(surface, rows).color)
+    assert (color[1:] > 0.0).all() and (color[0] == 0.0).all()  # row 11 has no lobe
+
+
 def test_textured_roughness_costs_one_table_per_ior():
     """Tens of thousands of distinct roughnesses under two IORs: two dielectric tables (made once, cached per eta to
     1e-4), a lookup that takes milliseconds, and A continuous in roughness."""
