@@ -257,7 +257,8 @@ def test_glossy_color_read_in_place_is_the_lobes():
     rows = np.array([11, 0, 4, 7, 4, 2, 9, 5, 10])
     color = M.glossy_color(surface, rows)
     np.testing.assert_array_equal(color, M.GlossyLobe.of(surface, rows).color)
-    assert (color[1:] > 0.0).all() and (color[0] == 0.0).all()  # row 11 has no lobe
+    none = rows >= 9  # the last part has no lobe
+    assert (color[~none] > 0.0).all() and (color[none] == 0.0).all()
 
 
 def test_textured_roughness_costs_one_table_per_ior():
