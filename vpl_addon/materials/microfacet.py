@@ -467,15 +467,20 @@ class Compensation:
 
 @inline
 def _f82_mean(f0, b):
-    """The cosine-weighted hemispherical mean of the F82-tint curve, F0 + (1 - F0) / 21 - b / 126 (unclamped), of
-    numbers or of arrays."""
-    return f0 + (1.0 - f0) / 21.0 - b / 126.0
+    """The cosine-weighted hemispherical mean of the F82-tint curve of one channel, F0 + (1 - F0) / 21 - b / 126,
+    clamped to [0, 1]."""
+    return min(max(f0 + (1.0 - f0) / 21.0 - b / 126.0, 0.0), 1.0)
+
+
+@kernel
+def _f82_means(f0, b, out):
+    for i in range(len(out)):
+        out[i] = _f82_mean(f0[i], b[i])
 
 
 def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> Compensation:
     """The metallic lobe's compensation and Glossy Color at view cosines ``mu`` (per point, vectorised)."""
-    f0, b = (np.asarray(x, np.float64) for x in (f0, b))
-    return _compensation(_metal_tables()[1], roughness, mu, np.clip(_f82_mean(f0, b), 0.0, 1.0), f0)
+    return _compensation(_metal_tables()[1], roughness, mu, _each(_f82_means, f0, b), f0)
 
 
 @kernel
@@ -496,8 +501,7 @@ def _add_colors(e_tab, e_avg_tab, s_tab, s_ss, rows, slots, metallic, roughness,
         else:
             e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, roughness[k], mu)
             for c in range(3):
-                f_avg = min(max(_f82_mean(f0[k, c], edge[k, c]), 0.0), 1.0)
-                scale[c], albedo[c] = _kulla_conty(e, s, e_avg, f_avg, f0[k, c])
+                scale[c], albedo[c] = _kulla_conty(e, s, e_avg, _f82_mean(f0[k, c], edge[k, c]), f0[k, c])
         for c in range(3):
             color[slots[i], c] += weight * albedo[c]
 
