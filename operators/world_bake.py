@@ -22,6 +22,7 @@ from typing import Callable
 import bpy
 import numpy as np
 
+from ..vpl_addon.core.compiled import cache_root
 from ..vpl_addon.render import Cancelled
 
 WIDTH, HEIGHT = 1024, 512  # a texel is 0.35 degrees: Nishita's sun disc (0.545 degrees) spans about two
@@ -66,8 +67,7 @@ class BakeError(RuntimeError):
 
 def cache_dir() -> str:
     """Where baked worlds are kept: ``$VPL_GI_CACHE/worlds``, by default under ~/.cache/vpl_gi."""
-    root = os.environ.get("VPL_GI_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "vpl_gi")
-    return os.path.join(root, "worlds")
+    return os.path.join(cache_root(), "worlds")
 
 
 def baked_world(world, frame: int, progress: Callable[[str], bool] | None = None) -> np.ndarray:

@@ -77,3 +77,37 @@ def test_a_kernel_keeps_its_inlined_helpers_in_its_cache(tmp_path):
     cached = [name for _, _, files in os.walk(tmp_path / "cache" / "numba" / "helped") for name in files]
     assert any(name.startswith("helped.quarter") and name.endswith(".nbc") for name in cached), cached
     assert not any(name.startswith("helped.half") for name in cached), cached
+
+
+def test_tables_are_kept_on_disk_bit_for_bit_and_made_again_when_the_code_or_the_file_changes(tmp_path, monkeypatch):
+    """``kept_tables``: the first call makes the arrays and keeps them, the next one (another process's) reads them
+    back to the bit without making them; another source file's hash makes them anew, and so does a damaged file.
+    The glossy lobe's albedo tables come back from the disk equal to the integrated ones."""
+    import numpy as np
+    from vpl_addon.core import compiled
+    from vpl_addon.materials import microfacet as M
+    monkeypatch.setenv("VPL_GI_CACHE", str(tmp_path / "cache"))
+    made = []
+
+    def make():
+        made.append(1)
+        return np.random.default_rng(3).random((4, 5)), np.float64(np.pi)
+
+    source = tmp_path / "module.py"
+    source.write_text("one")
+    first = compiled.kept_tables("t", str(source), make)
+    second = compiled.kept_tables("t", str(source), make)
+    assert len(made) == 1 and second[0].tobytes() == first[0].tobytes() and float(second[1]) == np.pi
+    (kept,) = (tmp_path / "cache" / "tables").iterdir()
+    kept.write_bytes(kept.read_bytes()[:100])  # a file cut short
+    assert compiled.kept_tables("t", str(source), make)[0].tobytes() == first[0].tobytes() and len(made) == 2
+    other = tmp_path / "other.py"
+    other.write_text("two")
+    compiled.kept_tables("t", str(other), make)
+    assert len(made) == 3
+    M._metal_tables.cache_clear()
+    M._metal_tables()  # made and kept
+    M._metal_tables.cache_clear()
+    for disk, integrated in zip(M._metal_tables(), M._integrated_metal_tables()):
+        assert disk.tobytes() == integrated.tobytes()
+    assert any(p.name.startswith("metal-") for p in (tmp_path / "cache" / "tables").iterdir())

@@ -42,7 +42,7 @@ from functools import cached_property, lru_cache
 import numpy as np
 
 from ..core.color import largest
-from ..core.compiled import inline, kernel
+from ..core.compiled import inline, kept_tables, kernel
 from ..core.rows import concat_fields, take_fields
 from ..core.sampling import basis, dot, stratified_2d
 
@@ -330,7 +330,11 @@ def _lobe_samples() -> tuple[np.ndarray, np.ndarray]:
 @lru_cache(maxsize=1)
 def _metal_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """(E, s, E_avg) on the grid: single-scattering albedo (roughness, mu), the lobe average of (1 - v.h)^5 and
-    E_avg = 2 int E mu dmu (roughness,)."""
+    E_avg = 2 int E mu dmu (roughness,); kept on disk (``kept_tables``)."""
+    return kept_tables("metal", __file__, _integrated_metal_tables)
+
+
+def _integrated_metal_tables() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     g, vh = _lobe_samples()
     e = g.mean(axis=2, dtype=np.float64)
     s = (g * (1.0 - vh) ** 5).mean(axis=2, dtype=np.float64) / np.maximum(e, 1e-300)
@@ -351,14 +355,19 @@ def dielectric_fss(eta: float) -> float:
 @lru_cache(maxsize=256)
 def _dielectric_tables(eta: float) -> tuple[np.ndarray, float]:
     """(s_bar (roughness, mu), s of F_ss_real) of the dielectric layer of relative IOR ``eta``: a reduction over
-    the shared lobe samples (about 30 ms)."""
+    the shared lobe samples (about 30 ms once they exist), kept on disk (``kept_tables``)."""
+    s_bar, s_ss = kept_tables(f"dielectric-{eta!r}", __file__, lambda: _integrated_dielectric_tables(eta))
+    return s_bar, float(s_ss)
+
+
+def _integrated_dielectric_tables(eta: float) -> tuple[np.ndarray, np.ndarray]:
     g, vh = _lobe_samples()
     f0 = float(f0_from_ior(eta))
     s_bar = np.empty(g.shape[:2])
     for i in range(len(g)):  # a roughness at a time
         s = _interpolation(f0, dielectric_fresnel(vh[i].astype(np.float64), eta))
         s_bar[i] = np.einsum("ij,ij->i", g[i], s) / g.shape[2]
-    return s_bar / np.maximum(_metal_tables()[0], 1e-300), float(_interpolation(f0, dielectric_fss(eta)))
+    return s_bar / np.maximum(_metal_tables()[0], 1e-300), np.float64(_interpolation(f0, dielectric_fss(eta)))
 
 
 def _at_roughness(table: np.ndarray, roughness: float) -> np.ndarray:
