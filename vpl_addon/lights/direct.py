@@ -127,10 +127,10 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
 
 
 def _lobe_samples(shine, at, lights, tracer, glossy, rng):
-    """shine[lo:hi] += MIS's other half: one direction from the metallic lobe per light sample, and the light of
-    every light the ray finds (``Light.mis``) that is not hidden, times f cos / pdf and the MIS weight against that
-    light's own pdf. The directions are kept to those the light samples can take (above the shading and the
-    geometric surface)."""
+    """shine[lo:hi] += MIS's other half: one direction from the glossy lobe per light sample (none at a rough coat,
+    ``GlossyLobe.broad``), and the light of every light the ray finds (``Light.mis``) that is not hidden, times
+    f cos / pdf and the MIS weight against that light's own pdf. The directions are kept to those the light samples
+    can take (above the shading and the geometric surface)."""
     lo, hi, owner, origin, p, ng, ns, _ = at
     rows = np.nonzero(glossy.present[owner + lo] & ~glossy.broad[owner + lo])[0]
     if len(rows) == 0:

@@ -95,8 +95,9 @@ def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.nda
              out: np.ndarray, branch: np.ndarray | None = None) -> PathVertices:
     """The hits ``rows`` of ``y`` as metallic vertices (``owner``, ``throughput`` and ``branch`` given per hit,
     the branch of the vertex each hit came from; the new vertices are its metallic branches) that survive
-    ``roulette`` on their throughput times their lobe's albedo (Glossy Color), their direct light through the lobe
-    (next-event estimation with MIS, ``GLOSSY_LIGHT_SAMPLES``, ``COAT_LIGHT_SAMPLES`` at a rough coat) added to
+    ``roulette`` on their throughput times their lobe's albedo (Glossy Color, ``microfacet.glossy_color``: the lobe
+    is built for the survivors alone), their direct light through the lobe (next-event estimation,
+    ``GLOSSY_LIGHT_SAMPLES`` with MIS, ``COAT_LIGHT_SAMPLES`` at a rough coat by light samples alone) added to
     ``out``."""
     live, boost = roulette(throughput[rows] * glossy_color(y, rows), rng)
     rows = rows[live]
