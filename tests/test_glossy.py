@@ -157,7 +157,7 @@ def test_glossy_direct_of_an_area_light_over_a_metal_floor(roughness, shape):
 
 def test_glossy_direct_of_an_area_light_over_a_rough_coat_by_light_samples_alone():
     """A black Principled floor with the default Specular (IOR 1.5) at roughness 0.6, under a 2 m area light 0.5 m
-    above it, seen straight down: its lobe is a rough coat (``GlossyLobe.broad``), whose light comes from light
+    above it, seen straight down: its lobe is a rough coat (``Surface.rough_coat``), whose light comes from light
     samples alone, without the lobe's samples and MIS. Glossy Direct x Glossy Color against the coat's lobe
     (compensated, Fresnel at v.h) integrated over the light on a 400 x 400 grid: the mean within 1.5 %, the pixels
     within 10 % of it. With the MIS weights kept and the lobe's samples dropped the mean came out 0.0125 for 0.0240."""
@@ -178,9 +178,10 @@ def test_glossy_direct_of_an_area_light_over_a_rough_coat_by_light_samples_alone
     d2 = (q * q).sum(axis=1)
     down = np.array([[0.0, 0.0, -1.0]])  # the floor's centre as the camera finds it, seen from straight above
     tracer = Tracer(scene.triangles, threads=1)
-    lobe = M.GlossyLobe.of(shade(scene, down, tracer.intersect(np.array([[0.0, 0.0, 1.0]]), down), np.array([0])))
+    point = shade(scene, down, tracer.intersect(np.array([[0.0, 0.0, 1.0]]), down), np.array([0]))
     tracer.close()
-    assert lobe.broad.all()
+    assert point.rough_coat.all()
+    lobe = M.GlossyLobe.of(point)
     value, _ = lobe.evaluate(q / np.sqrt(d2)[:, None], np.zeros(len(q), np.int64))
     solid = height / np.sqrt(d2) / d2 * (size / 400) ** 2  # cos at the light / d^2 x the cell's area
     expected = (value[:, 0] * solid).sum() * power / (np.pi * light.area)

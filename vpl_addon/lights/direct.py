@@ -13,8 +13,8 @@ The metallic lobe's light combines the light samples with as many samples of the
 importance sampling (Veach and Guibas 1995, the power heuristic), per light: a sharp lobe inside a light's solid
 angle is found by its own samples, where light samples alone gave f cos / pdf of 10^4 and more (single samples
 that the filter spread into squares). Lights that cannot evaluate their pdf for a given direction (``Light.mis``
-None: points, spots, suns) keep light samples alone, and so does a rough coat (``GlossyLobe.broad``), a lobe nearly as
-broad as the diffuse one: its lobe samples and the light pdfs that weighed against them were two thirds of the direct
+None: points, spots, suns) keep light samples alone, and so does a rough coat (``Surface.rough_coat``), a lobe nearly
+as broad as the diffuse one: its lobe samples and the light pdfs that weighed against them were two thirds of the direct
 light's time on walls of the Principled BSDF's default Specular (the imported USD Cornell box), for a few per cent of
 the light.
 """
@@ -55,6 +55,7 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
     if k == 0 or len(lights) == 0 or samples <= 0:
         return out, shine
     glazed = None if through is None else np.zeros((k, 3))
+    weighed = None if glossy is None else glossy.present & ~surface.rough_coat  # the points whose lobe takes MIS
     p = surface.position
     ng = surface.geometric_normal
     ns = surface.shading_normal
@@ -76,27 +77,27 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
             # stratify the light choice over the samples of one point
             strata = (np.tile(np.arange(samples), hi - lo) + jitter[lo * samples:hi * samples]) / samples
             wi, dist, weight, target_n, which, chance = lights.sample_incident(at_p, at_ns, strata, u1, u2, owner)
-            _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy,
+            _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, weighed,
                         lambda rows: lights.local_pdf(at_p[owner[rows]], at_ns[owner[rows]], wi[rows], which[rows],
                                                       chance[rows]), glazed)
         if lights.world is not None:
             wi, dist, weight = lights.world.sample_incident(at_p, at_ns, w1, w2, owner)
-            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy,
+            _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy, weighed,
                         lambda rows: lights.world.mis(at_p[owner[rows]], at_ns[owner[rows]], wi[rows])[2], glazed)
         if glossy is not None:
-            _lobe_samples(shine, at, lights, tracer, glossy, rng)
+            _lobe_samples(shine, at, lights, tracer, glossy, weighed, rng)
     if through is not None:
         through += glazed / samples
     return out / samples, shine / samples
 
 
-def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, light_pdf, through=None):
+def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, weighed, light_pdf, through=None):
     """out[lo:hi] += the light samples' contributions weight * cos / pi * V (cos with the bump shadowing term,
-    ``surface.diffuse_cosine``), summed per point; shine[lo:hi] +=
-    weight * (f cos of the glossy lobe) * V * the MIS weight against the lobe's pdf (``light_pdf(rows)``: the
-    light samples' own pdf, NaN for no MIS). ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow
-    rays' origin at each point, and the position, geometric, shading and smooth normal of each sample's point);
-    ``through`` (or ``out`` when None) takes the diffuse light of the rays that went through glass."""
+    ``surface.diffuse_cosine``), summed per point; shine[lo:hi] += weight * (f cos of the glossy lobe) * V * the
+    MIS weight against the lobe's pdf (``light_pdf(rows)``: the light samples' own pdf, NaN for no MIS) at the points
+    ``weighed``, 1 elsewhere. ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow rays' origin at
+    each point, and the position, geometric, shading and smooth normal of each sample's point); ``through`` (or
+    ``out`` when None) takes the diffuse light of the rays that went through glass."""
     lo, hi, owner, origin, p, ng, ns, smooth = at
     cos = np.empty(len(wi))
     sel = np.nonzero(_facing(owner, ng, ns, wi, weight, cos))[0]
@@ -121,18 +122,18 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, ligh
         point = owner[sel] + lo
         lit = np.nonzero(glossy.present[point])[0]
         value, p_lobe = glossy.evaluate(wi[sel[lit]], point[lit])
-        mis = np.nonzero(~glossy.broad[point[lit]])[0]  # a rough coat's light samples stand alone
+        mis = np.nonzero(weighed[point[lit]])[0]  # a rough coat's light samples stand alone
         value[mis] *= power_heuristic(light_pdf(sel[lit[mis]]), p_lobe[mis])[:, None]
         shine[lo:hi] += group_sum(owner[sel[lit]], arrived[lit] * value, hi - lo)
 
 
-def _lobe_samples(shine, at, lights, tracer, glossy, rng):
-    """shine[lo:hi] += MIS's other half: one direction from the glossy lobe per light sample (none at a rough coat,
-    ``GlossyLobe.broad``), and the light of every light the ray finds (``Light.mis``) that is not hidden, times
-    f cos / pdf and the MIS weight against that light's own pdf. The directions are kept to those the light samples
-    can take (above the shading and the geometric surface)."""
+def _lobe_samples(shine, at, lights, tracer, glossy, weighed, rng):
+    """shine[lo:hi] += MIS's other half: one direction from the glossy lobe per light sample at the points
+    ``weighed`` (not at a rough coat), and the light of every light the ray finds (``Light.mis``) that is not
+    hidden, times f cos / pdf and the MIS weight against that light's own pdf. The directions are kept to those the
+    light samples can take (above the shading and the geometric surface)."""
     lo, hi, owner, origin, p, ng, ns, _ = at
-    rows = np.nonzero(glossy.present[owner + lo] & ~glossy.broad[owner + lo])[0]
+    rows = np.nonzero(weighed[owner + lo])[0]
     if len(rows) == 0:
         return
     p, ng, ns = p[owner], ng[owner], ns[owner]  # each light sample's point

@@ -51,7 +51,6 @@ MU_BAR = 1.0 / 7.0
 TABLE_MU = 32  # view-cosine steps of the albedo tables
 TABLE_ROUGHNESS = 33  # roughness steps of the tables, 0 to 1
 TABLE_SAMPLES = 2048  # stratified visible normals per table entry (a power of two: Sobol points)
-ROUGH_COAT = 0.5  # Roughness from which a dielectric layer alone counts as a rough coat (``GlossyLobe.broad``)
 
 
 def alpha(roughness: np.ndarray) -> np.ndarray:
@@ -617,13 +616,6 @@ class GlossyLobe:
     def present(self) -> np.ndarray:
         """(K,) bool: whether the point has either lobe (computed once: direct light asks per batch)."""
         return (largest(self.weight) > 0.0) | (largest(self.layer) > 0.0)
-
-    @cached_property
-    def broad(self) -> np.ndarray:
-        """(K,) bool: whether the point's lobe is a rough coat (``Surface.rough_coat``): no metal, a dielectric layer
-        of Roughness ``ROUGH_COAT`` or more. Its f cos is at most a few times the diffuse lobe's, so light samples
-        alone find its light without MIS (``lights.direct``)."""
-        return (largest(self.weight) <= 0.0) & (self.eta != 1.0) & (self.alpha >= ROUGH_COAT * ROUGH_COAT)
 
     def take(self, rows) -> "GlossyLobe":
         return take_fields(self, rows)

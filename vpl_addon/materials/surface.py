@@ -21,8 +21,10 @@ import numpy as np
 from ..core.sampling import cosine_hemisphere, dot, interpolated, normalize
 from ..core.compiled import kernel
 from ..core.rows import concat_fields, take, take_fields
-from .microfacet import ROUGH_COAT, dielectric_fresnel, edge, scale_below_layer, smith_g1, specular_layer
+from .microfacet import dielectric_fresnel, edge, scale_below_layer, smith_g1, specular_layer
 from .textures import at_points, lookup
+
+ROUGH_COAT = 0.5  # Roughness from which a dielectric layer counts as a rough coat (``Surface.rough_coat``)
 
 
 @dataclass
@@ -57,7 +59,8 @@ class Surface:
     def rough_coat(self) -> np.ndarray:
         """(K,) bool: whether the point's glossy lobe is a rough dielectric layer alone (no metal, Roughness at least
         ``ROUGH_COAT``): a lobe nearly as broad as the diffuse one and a few per cent of the light, which fewer
-        samples serve (``render.glossy_samples``, ``paths.vertices.at_metal``)."""
+        samples serve (``render.glossy_samples``, ``paths.vertices.at_metal``) and light samples alone light, without
+        the lobe's own samples and MIS (``lights.direct``)."""
         return (self.metallic <= 0.0) & (self.eta != 1.0) & (self.roughness >= ROUGH_COAT)
 
     def __len__(self):
