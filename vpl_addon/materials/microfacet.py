@@ -492,16 +492,17 @@ def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.nd
 
 
 @kernel
-def _add_colors(e_tab, e_avg_tab, s_tab, s_ss, rows, slots, metallic, roughness, normal, incident, f0, edge, layer,
-                color):
-    """color[slots[i]] += the Glossy Color of point rows[i] (``GlossyLobe.color``) of one lobe: the metallic one
-    (``layer`` False: F82-tint with F0 ``f0`` and b ``edge``, weight Metallic) or the dielectric layer (``layer``
-    True: ``f0`` its F0 x tint, weight 1 - Metallic), seen from -``incident`` at shading normal ``normal``."""
+def _add_lobe(e_tab, e_avg_tab, s_tab, s_ss, rows, slots, metallic, roughness, normal, incident, f0, edge, layer,
+              weight, color):
+    """One lobe of the points rows[i], seen from -``incident`` at shading normal ``normal``, into slot slots[i]: the
+    metallic lobe (``layer`` False: F82-tint with F0 ``f0`` and b ``edge``, weight Metallic) or the dielectric layer
+    (``layer`` True: ``f0`` its F0 x tint, weight 1 - Metallic). ``weight`` takes the lobe's weight times its
+    compensation, ``color`` adds the weight times its albedo (Cycles' Glossy Color)."""
     scale, albedo = np.empty(3), np.empty(3)
     for i in range(len(rows)):
         k = rows[i]
-        weight = 1.0 - metallic[k] if layer else metallic[k]
-        if not weight > 0.0:
+        w = 1.0 - metallic[k] if layer else metallic[k]
+        if not w > 0.0:
             continue
         mu = -(normal[k, 0] * incident[k, 0] + normal[k, 1] * incident[k, 1] + normal[k, 2] * incident[k, 2])
         if layer:
@@ -511,24 +512,31 @@ def _add_colors(e_tab, e_avg_tab, s_tab, s_ss, rows, slots, metallic, roughness,
             for c in range(3):
                 scale[c], albedo[c] = _kulla_conty(e, s, e_avg, _f82_mean(f0[k, c], edge[k, c]), f0[k, c])
         for c in range(3):
-            color[slots[i], c] += weight * albedo[c]
+            weight[slots[i], c] = w * scale[c]
+            color[slots[i], c] += w * albedo[c]
 
 
-def glossy_color(surface, rows: np.ndarray) -> np.ndarray:
-    """(R,3) Cycles' Glossy Color (``GlossyLobe.color``) of a ``Surface``'s points ``rows``, read where they are: what
-    Russian roulette weighs before a lobe is worth building for a point (``paths.vertices.at_metal``)."""
-    color = np.zeros((len(rows), 3))
+def _lobe_terms(surface, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(metallic lobe's weight, layer's weight, Glossy Color), each (R,3), of a ``Surface``'s points ``rows``, read
+    where they are (``_add_lobe``): the weights with their compensation; zero for a lobe the point lacks."""
+    metal, layer, color = (np.zeros((len(rows), 3)) for _ in range(3))
     e_tab, s_metal, e_avg_tab = _metal_tables()
     metallic, roughness, normal, incident, specular, edge, dielectric = (
         np.ascontiguousarray(getattr(surface, f), np.float64) for f in
         ("metallic", "roughness", "shading_normal", "incident", "specular", "edge", "dielectric"))
     rows = np.asarray(rows, np.int64)
-    _add_colors(e_tab, e_avg_tab, s_metal, 0.0, rows, np.arange(len(rows)), metallic, roughness, normal, incident,
-                specular, edge, False, color)
+    _add_lobe(e_tab, e_avg_tab, s_metal, 0.0, rows, np.arange(len(rows)), metallic, roughness, normal, incident,
+              specular, edge, False, metal, color)
     for group, s_bar_tab, s_ss in _by_eta(surface.eta[rows]):
-        _add_colors(e_tab, e_avg_tab, s_bar_tab, s_ss, rows[group], group, metallic, roughness, normal, incident,
-                    dielectric, edge, True, color)
-    return color
+        _add_lobe(e_tab, e_avg_tab, s_bar_tab, s_ss, rows[group], group, metallic, roughness, normal, incident,
+                  dielectric, edge, True, layer, color)
+    return metal, layer, color
+
+
+def glossy_color(surface, rows: np.ndarray) -> np.ndarray:
+    """(R,3) Cycles' Glossy Color (``GlossyLobe.color``) of a ``Surface``'s points ``rows``, read where they are: what
+    Russian roulette weighs before a lobe is worth building for a point (``paths.vertices.at_metal``)."""
+    return _lobe_terms(surface, rows)[2]
 
 
 def _by_eta(eta: np.ndarray):
@@ -594,23 +602,13 @@ class GlossyLobe:
     @staticmethod
     def of(surface, rows: np.ndarray | None = None) -> "GlossyLobe":
         """The lobes of a ``Surface``'s points, or of its points ``rows`` (the fields the lobe reads, not a copy of
-        the whole surface)."""
-        fields = ("incident", "shading_normal", "metallic", "roughness", "specular", "edge", "dielectric", "eta")
-        incident, normal, metallic, roughness, specular, edge, dielectric, eta = \
+        the whole surface); weights and Glossy Color by ``_lobe_terms``."""
+        weight, layer, color = _lobe_terms(surface, np.arange(len(surface.eta)) if rows is None else rows)
+        fields = ("incident", "shading_normal", "roughness", "specular", "edge", "dielectric", "eta")
+        incident, normal, roughness, specular, edge, dielectric, eta = \
             (getattr(surface, f) if rows is None else getattr(surface, f)[rows] for f in fields)
-        view = -incident
-        weight, color = np.zeros((len(eta), 3)), np.zeros((len(eta), 3))
-        mu = dot(normal, view)
-        shiny = np.nonzero(metallic > 0.0)[0]
-        if len(shiny):
-            comp = compensation(roughness[shiny], specular[shiny], edge[shiny], mu[shiny])
-            m = metallic[shiny, None]
-            weight[shiny], color[shiny] = m * comp.scale, m * comp.color
-        comp = _dielectric_compensation(roughness, dielectric, eta, mu)  # unit scale, no colour where eta is 1
-        below = np.where(eta != 1.0, 1.0 - metallic, 0.0)[:, None]
-        color += below * comp.color
-        return GlossyLobe(normal, view, alpha(roughness), specular, edge, weight, np.clip(dielectric, 0.0, 1.0), eta,
-                          below * comp.scale, color)
+        return GlossyLobe(normal, -incident, alpha(roughness), specular, edge, weight, np.clip(dielectric, 0.0, 1.0),
+                          eta, layer, color)
 
     @cached_property
     def present(self) -> np.ndarray:
