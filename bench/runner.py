@@ -40,7 +40,7 @@ from ..vpl_addon.core import tracer as tracer_module
 from ..vpl_addon.core.exr import read_passes
 from ..vpl_addon.core.memory import status_kb, trim_heap
 from ..vpl_addon.evaluation import convergence as C
-from ..vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors, pass_mask
+from ..vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors, noise_floor, pass_mask
 from ..vpl_addon.evaluation.subdivision import levels_for, subdivide
 from ..vpl_addon.gather import summing
 from ..vpl_addon.lights.area import AreaLight
@@ -460,6 +460,7 @@ class Bench:
         h, w = ref_alpha.shape
         mask = coverage_mask(ref_alpha, (h, w))
         twin_path, twin = twin_for(blend, pct, self.o.reference_dir)
+        floor = None if twin is None else noise_floor(reference[P.COMBINED], twin, mask)
         self.say(f"{label}: {w}x{h}, reference {source}" +
                  (f", twin {os.path.relpath(twin_path)}" if twin_path else ""))
 
@@ -526,12 +527,12 @@ class Bench:
                 runs += self.sweep(method, label, one, lambda spp, denoise=denoise: cycles_run(scene, spp, denoise, tmp))
         for run in runs:
             self.rows += run.rows()
-        self.report(label, w, h, runs)
+        self.report(label, w, h, runs, floor)
 
-    def report(self, label: str, w: int, h: int, runs: list[Run]) -> None:
+    def report(self, label: str, w: int, h: int, runs: list[Run], floor: dict | None = None) -> None:
         curves = curves_of(runs)
         C.plot(os.path.join(self.o.out_dir, f"{label}.png"), f"{label} ({w}x{h})", curves)
-        lines = headline(label, curves) + headline(label, curves_of(runs, "rmae4"), "rmae4") + \
+        lines = headline(label, curves, floor=floor) + headline(label, curves_of(runs, "rmae4"), "rmae4", floor) + \
             headline(label, curves_of(runs, "clean_rrmse"), "clean_rrmse")
         self.summary += lines
         for line in lines:
@@ -567,11 +568,14 @@ def curves_of(runs: list[Run], metric: str = "rmae") -> dict[str, dict[str, C.Cu
     return panels
 
 
-def headline(label: str, panels: dict[str, dict[str, C.Curve]], metric: str = "rmae") -> list[str]:
+def headline(label: str, panels: dict[str, dict[str, C.Curve]], metric: str = "rmae",
+             floor: dict | None = None) -> list[str]:
     """The two headline numbers against Cycles on Diffuse Indirect, and the same against Cycles + OIDN on
     Combined (where the undenoised and the denoised engine methods compete); for ``metric`` "rmae4" (rMAE of 4 x 4
     blocks, which a reference's own noise disturbs less) and "clean_rrmse" (relative RMSE with the references'
-    own noise taken out, where the scene has a twin reference) the Combined ones only."""
+    own noise taken out, where the scene has a twin reference) the Combined ones only. ``floor``
+    (``metrics.noise_floor``, where the scene has a twin) adds what a perfect image scores in ``metric`` on
+    Combined, and so the largest ratio against Cycles + OIDN that any image could show at each time."""
     lines = []
     rmae, what = {"rmae": ("rMAE", ":"), "rmae4": ("block rMAE", ", rMAE of 4 x 4 blocks:"),
                   "clean_rrmse": ("clean rRMSE", ", relative RMSE with the references' own noise taken out:")}[metric]
@@ -598,6 +602,11 @@ def headline(label: str, panels: dict[str, dict[str, C.Curve]], metric: str = "r
         times = " / ".join(f"{t:g} s" for t in HEADLINE_SECONDS)
         lines.append(f"  each method, {rival} {rmae} / its {rmae} at {times}: "
                      + ", ".join(each))
+        if floor is not None and name == P.COMBINED and metric in floor:
+            most = [C.error_at(curves[rival], t).value for t in HEADLINE_SECONDS]
+            lines.append(f"  the references' floor: a perfect image scores about {floor[metric]:.4f} (the twin's "
+                         f"{rmae} over sqrt 2); the most any image can show against {rival} at {times}: "
+                         + " / ".join("n/a" if e is None else f"{e / floor[metric]:.2f}x" for e in most))
         ee = C.equal_error(ours, curves[rival], EQUAL_ERROR_SECONDS)
         if ee.best is None:
             lines.append(f"  equal error: n/a (no method's runs span {ee.seconds:g} s)")

@@ -148,6 +148,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     assert (out / "cornell_area.png").stat().st_size > 5000
     summary = (out / "summary.txt").read_text()
     assert "relative RMSE with the references' own noise taken out" in summary
+    assert summary.count("the references' floor: a perfect image scores about") == 2  # rMAE and block rMAE
     assert "equal time 2 s" in summary and "equal time 30 s" in summary and "equal error" in summary and "against cycles+oidn" in summary
     assert "gather shadow rays" in summary and "% of raw" in summary and "disagree" not in summary
     with open(out / "scaling.csv", newline="") as f:

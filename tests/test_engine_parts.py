@@ -8,7 +8,7 @@ from vpl_addon.core.camera import Camera, filter_inverse_cdf, view_window
 from vpl_addon.core.exr import read_header, read_passes, write_passes
 from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.core.tracer import Tracer
-from vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors
+from vpl_addon.evaluation.metrics import clean_rrmse, coverage_mask, errors, noise_floor
 from vpl_addon.materials.textures import sample_bilinear
 
 CAM = Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=False))
@@ -224,6 +224,27 @@ def test_clean_rrmse_takes_the_references_own_noise_out_and_keeps_an_images_erro
     assert clean_rrmse(dark, a, b, mask) == pytest.approx(0.1, rel=0.05)
     with pytest.raises(ValueError):
         clean_rrmse(image, a, b[:8])
+
+
+def test_the_noise_floor_is_what_the_truth_scores_and_no_image_scores_less():
+    """Two references with independent Gaussian noise (sigma 0.05 over an image ramping from 0.2 to 2): the truth
+    scores the twin's rMAE over sqrt 2 against the reference (pixels and 4 x 4 blocks, and over a mask of the dim
+    side, where the relative noise is twice the mean); images independent of the reference, the truth with noise of
+    its own or 3 % too bright, score more; a render with the reference's noise scores sqrt 2 times the floor."""
+    rng = np.random.default_rng(11)
+    truth = np.repeat(np.linspace(0.2, 2.0, 256)[None, :, None], 256, axis=0) * np.ones((1, 1, 3))
+    a, b = (truth + rng.normal(0.0, 0.05, truth.shape) for _ in range(2))
+    floor = noise_floor(a, b)
+    assert floor["rmae"] == pytest.approx(errors(truth, a)["rmae"], rel=0.02)
+    assert floor["rmae4"] == pytest.approx(errors(truth, a)["rmae4"], rel=0.03)
+    assert floor["rmae_bound"] == pytest.approx(floor["rmae"] / np.sqrt(2.0))
+    assert errors(b, a)["rmae"] == pytest.approx(np.sqrt(2.0) * floor["rmae"])
+    assert errors(truth + rng.normal(0.0, 0.02, truth.shape), a)["rmae"] > 1.05 * floor["rmae"]
+    assert errors(1.03 * truth, a)["rmae"] > 1.1 * floor["rmae"]
+    mask = np.zeros((256, 256), bool)
+    mask[:, :64] = True
+    dim = noise_floor(a, b, mask)["rmae"]
+    assert dim > 2.0 * floor["rmae"] and dim == pytest.approx(errors(truth, a, mask)["rmae"], rel=0.03)
 
 
 def test_metrics_ignore_pixels_the_reference_does_not_cover_fully():

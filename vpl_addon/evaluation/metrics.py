@@ -6,7 +6,8 @@ mean ratio = mean(I) / mean(I_ref). ``rmae4`` is rMAE after both images are aver
 blocks the mask holds whole): a reference's own noise there is about a quarter of its per-pixel noise, while a
 method's bias, and the blotches a denoiser leaves, stay (the corridor's 16384-spp reference differs from itself
 denoised by rMAE 0.066 per pixel, 0.014 in blocks: bench/README.md). ``clean_rrmse`` takes that noise out
-altogether, given a second reference (a twin) with noise of its own. The mask keeps pixels whose reference
+altogether, given a second reference (a twin) with noise of its own; ``noise_floor`` says, from the same twin, what
+the truth itself scores in rMAE, under which no image's figure goes. The mask keeps pixels whose reference
 alpha is at least 0.999: silhouette pixels have random coverage and would dominate the error of a pass that
 Cycles divides by a colour. For those passes (``Diffuse Direct`` / ``Diffuse Indirect`` by ``Diffuse Color``, the
 glossy ones by ``Glossy Color``) the pixels whose reference colour is 0 (metals for the diffuse passes, diffuse
@@ -114,6 +115,20 @@ def clean_rrmse(image: np.ndarray, reference: np.ndarray, twin: np.ndarray, mask
     scale = max(float(mean.mean()), 1e-8)  # black references: as ``errors``' floor, an absolute error over 1e-8
     squared = float(np.mean((img - mean) ** 2) - 0.25 * np.mean((a - b) ** 2))
     return float(np.sqrt(max(squared, 0.0)) / scale)
+
+
+def noise_floor(reference: np.ndarray, twin: np.ndarray, mask: np.ndarray | None = None) -> dict[str, float]:
+    """What the truth itself scores against ``reference``, in ``errors``' rMAE and block rMAE: the floor under every
+    image's figure. The reference is A = T + n and its ``twin`` B = T + n', with n and n' independent and alike
+    (Cycles with two seeds). For Gaussian noise (a pixel's mean over thousands of samples) E|A - B| = sqrt(2)
+    E|A - T|, so the truth scores the twin's rMAE over sqrt(2); whatever the noise's shape, at least half of it
+    (|A - B| <= |A - T| + |T - B|). An image independent of the reference cannot do better in expectation where
+    the noise is symmetric about T (the median minimises the mean absolute deviation), so an rMAE ratio between two
+    renderers is bounded by the rival's figure over this floor. ``rmae_bound`` is the half; ``clean_rrmse`` has no
+    floor (it takes the noise out)."""
+    found = errors(twin, reference, mask)
+    return {"rmae": found["rmae"] / np.sqrt(2.0), "rmae_bound": found["rmae"] / 2.0,
+            "rmae4": found["rmae4"] / np.sqrt(2.0)}
 
 
 def error_map(image: np.ndarray, reference: np.ndarray) -> np.ndarray:
