@@ -247,10 +247,16 @@ def find_reference(blend: str, percentage: int | None, folder: str, seed: int = 
     return max(found)[1] if found else None
 
 
-def twin_for(blend: str, percentage: int | None, folder: str) -> tuple[str | None, np.ndarray | None]:
-    """The twin reference of ``blend`` in ``folder`` (``find_reference`` with ``TWIN_SEED``) and its Combined, or
-    (None, None): what ``clean_rrmse`` needs beside the reference."""
+def twin_for(blend: str, percentage: int | None, folder: str, cache_dir: str | None = None,
+             samples: int | None = None) -> tuple[str | None, np.ndarray | None]:
+    """The twin reference of ``blend`` in ``folder`` (``find_reference`` with ``TWIN_SEED``) or else, at
+    ``samples``, in ``cache_dir`` (where ``reference --twin`` keeps it by hash: the twins of the converted scenes,
+    whose .blend files ``make scenes`` writes here and git does not hold), and its Combined, or (None, None): what
+    ``clean_rrmse`` and ``noise_floor`` need beside the reference."""
     path = find_reference(blend, percentage, folder, TWIN_SEED)
+    if path is None and cache_dir and samples:
+        cached = os.path.join(cache_dir, f"{reference_hash(blend, samples, None, percentage, TWIN_SEED)}.exr")
+        path = cached if os.path.exists(cached) else None
     return path, (read_passes(path)[0][P.COMBINED] if path else None)
 
 
@@ -459,7 +465,7 @@ class Bench:
         ref_alpha = reference[P.COMBINED][..., 3]
         h, w = ref_alpha.shape
         mask = coverage_mask(ref_alpha, (h, w))
-        twin_path, twin = twin_for(blend, pct, self.o.reference_dir)
+        twin_path, twin = twin_for(blend, pct, self.o.reference_dir, self.o.cache_dir, self.o.reference_samples)
         floor = None if twin is None else noise_floor(reference[P.COMBINED], twin, mask)
         self.say(f"{label}: {w}x{h}, reference {source}" +
                  (f", twin {os.path.relpath(twin_path)}" if twin_path else ""))

@@ -116,6 +116,13 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     from vpl_gi.vpl_addon.core.exr import read_passes
     assert list(read_passes(str(refs / "twin.exr"))[0]) == ["Combined"]
     assert stored_info(str(refs / "twin.exr"))["seed"] == TWIN_SEED
+    from vpl_gi.bench.runner import twin_for
+    nowhere = tmp_path / "empty"
+    nowhere.mkdir()
+    found, combined = twin_for(str(EXAMPLES / "cornell_area.blend"), 25, str(nowhere), str(tmp_path / "cache"), 64)
+    assert found is not None and np.array_equal(combined, read_passes(str(refs / "twin.exr"))[0]["Combined"])
+    assert twin_for(str(EXAMPLES / "cornell_area.blend"), 25, str(nowhere), str(tmp_path / "cache"), 4096) == \
+        (None, None)  # the cache holds it at the samples it was rendered with alone
     code, stdout, stderr = run_cli("bench", EXAMPLES / "cornell_area.blend", "--quick", "--scaling",
                                    "--methods", "ir,bidir,ir+oidn,cycles,cycles+oidn", "--out", out,
                                    "--reference-dir", refs)
