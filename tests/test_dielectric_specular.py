@@ -212,9 +212,9 @@ def test_metal_alone_matches_the_code_before_the_layer():
     k = len(OLD_MU)
     f0 = np.tile(BASE, (k, 1))
     b = M.f82_b(f0, np.tile([0.8, 0.9, 1.0], (k, 1)))
-    comp = M.compensation(OLD_ROUGHNESS, f0, b, OLD_MU)
-    np.testing.assert_allclose(comp.scale[:, 0], OLD_SCALE_RED, rtol=0.005)
-    np.testing.assert_allclose(comp.color, OLD_COLOR, rtol=0.005)
+    scale, color = M.compensation(OLD_ROUGHNESS, f0, b, OLD_MU)
+    np.testing.assert_allclose(scale[:, 0], OLD_SCALE_RED, rtol=0.005)
+    np.testing.assert_allclose(color, OLD_COLOR, rtol=0.005)
 
     metallic = np.linspace(0.3, 1.0, k)
     surface = types.SimpleNamespace(
@@ -223,7 +223,7 @@ def test_metal_alone_matches_the_code_before_the_layer():
         incident=-np.stack([np.sqrt(1 - OLD_MU ** 2), np.zeros(k), OLD_MU], axis=1), dielectric=np.zeros((k, 3)),
         eta=np.ones(k))
     lobe = M.GlossyLobe.of(surface)
-    np.testing.assert_allclose(lobe.weight, metallic[:, None] * comp.scale, rtol=1e-12)
+    np.testing.assert_allclose(lobe.weight, metallic[:, None] * scale, rtol=1e-12)
     np.testing.assert_allclose(lobe.color, metallic[:, None] * OLD_COLOR, rtol=0.005)
     np.testing.assert_array_equal(lobe.layer, 0.0)
     rng = np.random.default_rng(7)

@@ -42,9 +42,9 @@ def _floor_albedo_seen_by_the_patch() -> float:
         v = np.tile([np.sqrt(1.0 - mu * mu), 0.0, mu], (k, 1))
         f0 = np.tile(F0, (k, 1))
         b = M.f82_b(f0, np.ones((k, 3)))
-        comp = M.compensation(np.full(k, ROUGHNESS), f0, b, np.full(k, mu))
-        lobe = M.GlossyLobe(n, v, np.full(k, float(M.alpha(np.array([ROUGHNESS]))[0])), f0, b, comp.scale,
-                            np.zeros((k, 3)), np.ones(k), np.zeros((k, 3)), comp.color)  # no dielectric layer
+        scale, color = M.compensation(np.full(k, ROUGHNESS), f0, b, np.full(k, mu))
+        lobe = M.GlossyLobe(n, v, np.full(k, float(M.alpha(np.array([ROUGHNESS]))[0])), f0, b, scale,
+                            np.zeros((k, 3)), np.ones(k), np.zeros((k, 3)), color)  # no dielectric layer
         _, weight, _ = lobe.sample(rng.random(k), rng.random(k), np.arange(k))
         albedo.append(weight[:, 0].mean())
     return float((np.array(albedo) * 2.0 * mus).sum() / len(mus))

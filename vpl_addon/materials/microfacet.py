@@ -38,6 +38,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -411,17 +412,6 @@ def _kulla_conty(e, s, e_avg, f_avg, f):
     return 1.0 + f_ms * (1.0 - e) / e, (e + f_ms * (1.0 - e)) * (f + (1.0 - f) * s)
 
 
-@kernel
-def _compensated(e_tab, e_avg_tab, s_tab, roughness, mu, f_avg, f, scale, color):
-    """Per row: Kulla and Conty's compensation ``scale`` and ``color`` (``_kulla_conty``) with E, s and E_avg at the
-    row's roughness and view cosine (``_tables_at``), in one pass (the numpy lookups were a tenth of the hotel room's
-    time)."""
-    for k in range(len(roughness)):
-        e, s, e_avg = _tables_at(e_tab, e_avg_tab, s_tab, roughness[k], mu[k])
-        for c in range(3):
-            scale[k, c], color[k, c] = _kulla_conty(e, s, e_avg, f_avg[k, c], f[k, c])
-
-
 @inline
 def _layer_row(e_tab, e_avg_tab, s_tab, s_ss, r, m, f0t, scale, color):
     """``_kulla_conty`` of the dielectric layer at one point into ``scale`` and ``color`` (3,): f = F0 x tint
@@ -430,15 +420,6 @@ def _layer_row(e_tab, e_avg_tab, s_tab, s_ss, r, m, f0t, scale, color):
     for c in range(3):
         f = min(max(f0t[c], 0.0), 1.0)
         scale[c], color[c] = _kulla_conty(e, s, e_avg, f + (1.0 - f) * s_ss, f)
-
-
-@kernel
-def _layer_compensated(e_tab, e_avg_tab, s_tab, s_ss, rows, roughness, mu, f0t, scale, color):
-    """``_layer_row`` at the points ``rows``, without copies of the rows (the layer's numpy arithmetic was a tenth
-    of a render on walls of the Principled BSDF's default Specular)."""
-    for i in range(len(rows)):
-        k = rows[i]
-        _layer_row(e_tab, e_avg_tab, s_tab, s_ss, roughness[k], mu[k], f0t[k], scale[k], color[k])
 
 
 @kernel
@@ -455,40 +436,11 @@ def _below_layer(e_tab, e_avg_tab, s_tab, s_ss, rows, roughness, normal, inciden
             below[k, c] *= keep
 
 
-def _compensation(s_tab, roughness, mu, f_avg, f) -> "Compensation":
-    """``_compensated`` of points (K,) with (K,3) F_avg and f, and the s table of the lobe."""
-    e_tab, _, e_avg_tab = _metal_tables()
-    k = len(roughness)
-    scale, color = np.empty((k, 3)), np.empty((k, 3))
-    _compensated(e_tab, e_avg_tab, s_tab, *(np.ascontiguousarray(a, np.float64) for a in (roughness, mu, f_avg, f)),
-                 scale, color)
-    return Compensation(scale, color)
-
-
-@dataclass
-class Compensation:
-    """Per point: the multiple-scattering factor of the lobe and Cycles' ``Glossy Color`` at the view angle."""
-
-    scale: np.ndarray  # (K,3) 1 + F_ms (1 - E) / E
-    color: np.ndarray  # (K,3) (E + F_ms (1 - E)) mix(F0, 1, s), without the metallic weight
-
-
 @inline
 def _f82_mean(f0, b):
     """The cosine-weighted hemispherical mean of the F82-tint curve of one channel, F0 + (1 - F0) / 21 - b / 126,
     clamped to [0, 1]."""
     return min(max(f0 + (1.0 - f0) / 21.0 - b / 126.0, 0.0), 1.0)
-
-
-@kernel
-def _f82_means(f0, b, out):
-    for i in range(len(out)):
-        out[i] = _f82_mean(f0[i], b[i])
-
-
-def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray, mu: np.ndarray) -> Compensation:
-    """The metallic lobe's compensation and Glossy Color at view cosines ``mu`` (per point, vectorised)."""
-    return _compensation(_metal_tables()[1], roughness, mu, _each(_f82_means, f0, b), f0)
 
 
 @kernel
@@ -516,9 +468,11 @@ def _add_lobe(e_tab, e_avg_tab, s_tab, s_ss, rows, slots, metallic, roughness, n
             color[slots[i], c] += w * albedo[c]
 
 
-def _lobe_terms(surface, rows: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(metallic lobe's weight, layer's weight, Glossy Color), each (R,3), of a ``Surface``'s points ``rows``, read
-    where they are (``_add_lobe``): the weights with their compensation; zero for a lobe the point lacks."""
+def _lobe_terms(surface, rows: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(metallic lobe's weight, layer's weight, Glossy Color), each (R,3), of a ``Surface``'s points ``rows`` (all
+    if None), read where they are (``_add_lobe``): the weights with their compensation; zero for a lobe the point
+    lacks."""
+    rows = np.arange(len(surface.eta)) if rows is None else rows
     metal, layer, color = (np.zeros((len(rows), 3)) for _ in range(3))
     e_tab, s_metal, e_avg_tab = _metal_tables()
     metallic, roughness, normal, incident, specular, edge, dielectric = (
@@ -551,18 +505,6 @@ def _by_eta(eta: np.ndarray):
         yield (layered if key is None else layered[key == value], *_dielectric_tables(float(value)))
 
 
-def _dielectric_compensation(roughness, f0t, eta, mu) -> Compensation:
-    """The dielectric layer's compensation and albedo A (its Glossy Color per unit weight); zero colour and unit
-    scale where eta is 1 (no layer). ``f0t`` is F0 x tint, clamped to [0, 1] here as Cycles does."""
-    eta = np.asarray(eta, np.float64)
-    scale, color = np.ones((len(eta), 3)), np.zeros((len(eta), 3))
-    e_tab, _, e_avg_tab = _metal_tables()
-    arrays = tuple(np.ascontiguousarray(a, np.float64) for a in (roughness, mu, f0t))
-    for rows, s_bar_tab, s_ss in _by_eta(eta):
-        _layer_compensated(e_tab, e_avg_tab, s_bar_tab, s_ss, rows, *arrays, scale, color)
-    return Compensation(scale, color)
-
-
 def scale_below_layer(below: np.ndarray, roughness, f0t, eta, normal, incident) -> None:
     """Scales the diffuse albedo ``below`` (K,3) in place by 1 - max(A) where the points have a layer (eta not 1),
     A its albedo (``layer_albedo``) seen along ``incident`` (K,3) at shading normals ``normal``: in one pass, the
@@ -577,7 +519,28 @@ def layer_albedo(roughness: np.ndarray, f0t: np.ndarray, eta: np.ndarray, mu: np
     """(K,3) albedo A of the dielectric layer per unit closure weight, seen at view cosines ``mu``, for layers of
     F0 x tint ``f0t`` (K,3) and relative IOR ``eta`` (K,) (1: no layer, A = 0): (E + F_ms (1 - E)) mix(F0 tint, 1,
     s_bar). The diffuse lobe below keeps 1 - max(A) of its weight (Cycles' ``closure_layering_weight``)."""
-    return _dielectric_compensation(roughness, f0t, eta, mu).color
+    return _lobe_terms(_seen_at(mu, roughness, metallic=0.0, dielectric=f0t, eta=eta))[2]
+
+
+def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray,
+                 mu: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(scale, Glossy Color), each (K,3), of the metallic lobe alone (F0 ``f0``, F82 b ``b``) at view cosines ``mu``:
+    its multiple-scattering factor 1 + F_ms (1 - E) / E and its albedo (E + F_ms (1 - E)) mix(F0, 1, s)."""
+    scale, _, color = _lobe_terms(_seen_at(mu, roughness, metallic=1.0, specular=f0, edge=b))
+    return scale, color
+
+
+def _seen_at(mu, roughness, metallic, specular=0.0, edge=0.0, dielectric=0.0, eta=1.0) -> SimpleNamespace:
+    """The fields ``_lobe_terms`` reads for points (K,) seen at view cosines ``mu`` (normal +z, incident (0, 0,
+    -mu), so that the cosine is ``mu`` exactly, NaN included)."""
+    mu = np.asarray(mu, np.float64)
+    k = len(mu)
+    rows3 = (lambda a: np.broadcast_to(np.asarray(a, np.float64), (k, 3)))
+    return SimpleNamespace(
+        metallic=np.full(k, metallic), roughness=np.broadcast_to(np.asarray(roughness, np.float64), (k,)),
+        shading_normal=rows3([0.0, 0.0, 1.0]), incident=np.stack([np.zeros(k), np.zeros(k), -mu], axis=1),
+        specular=rows3(specular), edge=rows3(edge), dielectric=rows3(dielectric),
+        eta=np.broadcast_to(np.asarray(eta, np.float64), (k,)))
 
 
 @dataclass
@@ -603,7 +566,7 @@ class GlossyLobe:
     def of(surface, rows: np.ndarray | None = None) -> "GlossyLobe":
         """The lobes of a ``Surface``'s points, or of its points ``rows`` (the fields the lobe reads, not a copy of
         the whole surface); weights and Glossy Color by ``_lobe_terms``."""
-        weight, layer, color = _lobe_terms(surface, np.arange(len(surface.eta)) if rows is None else rows)
+        weight, layer, color = _lobe_terms(surface, rows)
         fields = ("incident", "shading_normal", "roughness", "specular", "edge", "dielectric", "eta")
         incident, normal, roughness, specular, edge, dielectric, eta = \
             (getattr(surface, f) if rows is None else getattr(surface, f)[rows] for f in fields)
