@@ -5,6 +5,7 @@ from dataclasses import replace
 
 import bpy
 
+from ..vpl_addon.core.denoise import CLEAN_GUIDES
 from ..vpl_addon.gather.summing import GatherSettings
 from ..vpl_addon.methods import MethodSettings
 from ..vpl_addon.methods.vbnl import VBNLSettings
@@ -39,7 +40,8 @@ FILTER_ITEMS = (
 
 PREFILTER_ITEMS = (  # Cycles' Denoising Prefilter, in ``core.denoise.PREFILTERS``' order
     ("ACCURATE", "Accurate", "Denoise the albedo and normal guides first, then the image with them as clean ones: "
-                             "the most detail, three OpenImageDenoise runs"),
+                             f"the most detail, three OpenImageDenoise runs (one from {CLEAN_GUIDES} samples on, "
+                             "where the guides are clean already)"),
     ("FAST", "Fast", "One run that takes the guides as noisy: a seventh of Accurate's time at High quality, a "
                      "little softer"),
     ("NONE", "None", "One run that takes the guides as they are, as clean: fast, keeps the guides' own noise"),

@@ -1,5 +1,5 @@
-"""The denoiser in the engine (issue 23), without Blender: its progress and ESC reach into OIDN's filter runs, and a
-system without OIDN gets one warning and the picture as rendered."""
+"""The denoiser in the engine (issue 23), without Blender: its progress and ESC reach into OIDN's filter runs, guides
+of many samples go to it as clean, and a system without OIDN gets one warning and the picture as rendered."""
 import sys
 from dataclasses import replace
 
@@ -8,6 +8,7 @@ import pytest
 
 from conftest import plane_scene
 from vpl_addon.core import passes as P
+from vpl_addon.core.denoise import CLEAN_GUIDES, denoise
 from vpl_addon.lights import PointLight
 from vpl_addon.render import Cancelled, RenderSettings, render
 
@@ -33,6 +34,19 @@ def test_progress_reaches_into_the_denoiser(prefilter):
     assert sum(0.0 < f < 1.0 for f in steps) > 4  # from inside the filter runs, not only around them
     noisy, clean = result.passes[P.NOISY_IMAGE][..., :3], result.passes[P.COMBINED][..., :3]
     assert np.isfinite(clean).all() and np.abs(clean - noisy).mean() > 0.01 * noisy.mean()
+
+
+@pytest.mark.parametrize("samples, runs_as", [(CLEAN_GUIDES - 1, "ACCURATE"), (CLEAN_GUIDES, "NONE")])
+def test_accurate_takes_guides_of_many_samples_as_clean(samples, runs_as):
+    """Accurate denoises the guides first below ``CLEAN_GUIDES`` camera samples per pixel and hands them over as
+    they are from there on (``prefilter_for``): the render's Combined is, to the bit, OIDN run that way on its Noisy
+    Image and guides, and the two ways differ (so the check can fail)."""
+    passes = (P.COMBINED, P.NOISY_IMAGE, P.DENOISING_ALBEDO, P.DENOISING_NORMAL)
+    result = render(_lit(), replace(SETTINGS, samples=samples, passes=passes))
+    images = [result.passes[name][..., :3] for name in passes[1:]]
+    ways = {way: denoise(*images, prefilter=way) for way in ("ACCURATE", "NONE")}
+    np.testing.assert_array_equal(result.passes[P.COMBINED][..., :3], ways[runs_as])
+    assert np.abs(ways["ACCURATE"] - ways["NONE"]).max() > 0.0
 
 
 @pytest.mark.parametrize("stop_at", [0.0, 0.2, 0.8])

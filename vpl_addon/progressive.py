@@ -291,7 +291,8 @@ class ProgressiveRenderer:
                     total[name] = total.get(name, 0.0) + image
                 images = {name: image / count for name, image in total.items()}
                 if viewport.denoise:
-                    images[P.COMBINED] = _denoised(images, step.settings.threads, viewport, stop, result.warnings)
+                    images[P.COMBINED] = _denoised(images, count * step.settings.samples, step.settings.threads,
+                                                   viewport, stop, result.warnings)
             else:
                 images = result.passes
             with self._shown:
@@ -304,16 +305,16 @@ class ProgressiveRenderer:
         self._say(stop, f"done: {count} passes in {time.perf_counter() - started:.1f} s")
 
 
-def _denoised(images, threads, viewport: ViewportSettings, stop: threading.Event, warnings: list[str]) \
-        -> np.ndarray | None:
-    """Combined of the averaged ``images`` denoised with the viewport's prefilter and quality
-    (``render.denoise_combined``; None if ``stop`` is set meanwhile: OIDN's run stops); as it is, with a warning
-    added to ``warnings``, without OIDN."""
+def _denoised(images, samples: int, threads, viewport: ViewportSettings, stop: threading.Event,
+              warnings: list[str]) -> np.ndarray | None:
+    """Combined of the averaged ``images`` (``samples`` camera samples per pixel) denoised with the viewport's
+    prefilter and quality (``render.denoise_combined``; None if ``stop`` is set meanwhile: OIDN's run stops); as it
+    is, with a warning added to ``warnings``, without OIDN."""
     combined = images[P.COMBINED].copy()
     try:
         denoise_combined(combined, images[P.DENOISING_ALBEDO], images[P.DENOISING_NORMAL], threads,
                          lambda done, text: not stop.is_set(), warnings, "the viewport",
-                         viewport.denoise_prefilter, viewport.denoise_quality)
+                         viewport.denoise_prefilter, viewport.denoise_quality, samples)
     except Cancelled:
         return None
     return combined

@@ -33,7 +33,7 @@ import numpy as np
 
 from .core import passes as P
 from .core.color import largest
-from .core.denoise import DenoiseCancelled, DenoiserMissing, check as check_denoising, denoise, \
+from .core.denoise import DenoiseCancelled, DenoiserMissing, check as check_denoising, denoise, prefilter_for, \
     available as denoiser_available
 from .core.memory import trim_heap
 from .core.sampling import group_sum, pixel_nets
@@ -125,9 +125,10 @@ def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
 
 
 def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None, progress,
-                     warnings: list[str], what: str, prefilter: str, quality: str) -> None:
+                     warnings: list[str], what: str, prefilter: str, quality: str, samples: int) -> None:
     """Combined's colour (H,W,4) denoised in place (``core.denoise``, with Cycles' ``prefilter`` and ``quality``)
-    with the guides (H,W,3), its progress told as "denoising" (``progress`` may cancel it: ``Cancelled``); a black
+    with the guides (H,W,3), the means of ``samples`` camera samples per pixel (``core.denoise.prefilter_for``), its
+    progress told as "denoising" (``progress`` may cancel it: ``Cancelled``); a black
     picture stays black (OIDN would leave traces of 1e-6); without OIDN on this system, one warning in ``warnings``
     that names ``what`` is not denoised, and the image as it is."""
     if not combined[..., :3].any():
@@ -136,7 +137,8 @@ def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarra
     if told is not None and told(0.0) is False:
         raise Cancelled()
     try:
-        combined[..., :3] = denoise(combined[..., :3], albedo, normal, threads, told, prefilter, quality)
+        combined[..., :3] = denoise(combined[..., :3], albedo, normal, threads, told, prefilter_for(prefilter, samples),
+                                    quality)
     except DenoiseCancelled:
         raise Cancelled() from None
     except DenoiserMissing as err:
@@ -425,7 +427,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         t0 = time.perf_counter()
         denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
                          images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings,
-                         "the image", settings.denoise_prefilter, settings.denoise_quality)
+                         "the image", settings.denoise_prefilter, settings.denoise_quality, settings.samples)
         result.seconds["denoise"] = time.perf_counter() - t0
     result.rays, result.threads = tracer.rays_traced, tracer.threads
     result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
