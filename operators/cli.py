@@ -399,7 +399,8 @@ def _render_flags(r) -> None:
                         "default: the scene's setting)")
     r.add_argument("--denoising-quality", type=str.upper, choices=QUALITIES,
                    help="with --denoise, OIDN's network as Cycles' Denoise > Quality (default: the scene's setting)")
-    r.add_argument("--photons", type=int, help="vbnl: light paths traced for photon splitting")
+    r.add_argument("--photons", type=int, help="vbnl: light paths traced for photon splitting (0: automatic, a "
+                   "quarter of the camera samples, 2^18 to 2^20)")
     r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel (0: one per camera sample)")
     r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
     r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")

@@ -115,7 +115,9 @@ class VPLGISettings(bpy.types.PropertyGroup):
                     "here, the scene's Cycles value)")
     photons: bpy.props.IntProperty(
         name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
-        description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother")
+        description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother; 0 = "
+                    "automatic, a quarter of the render's camera samples (pixels x Samples / 4), from 262144 to "
+                    "1048576")
     vbnl_samples: bpy.props.IntProperty(
         name="Gather Samples", default=_VBNL.sampling.samples, min=0, soft_max=1024,
         description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each); 0 = one per "

@@ -406,6 +406,21 @@ def test_photon_lights_reproduce_the_radiance_of_a_lit_floor():
     assert np.isfinite(lights.radiance).all() and (lights.radiance >= 0).all()
 
 
+@pytest.mark.parametrize("samples, paths", [(8, 2048), (64, 5000)])
+def test_automatic_light_paths_are_a_quarter_of_the_camera_samples(samples, paths, monkeypatch):
+    """Light Paths 0 (the default): a render traces pixels x samples / 4 light paths within ``AUTO_PATHS`` (lowered
+    here to 1000-5000 to keep the test small: 32 x 32 pixels x 8 samples / 4 = 2048, x 64 capped at 5000); the
+    viewport's passes start from the fewest; a count that is set is traced as it is."""
+    import vpl_addon.methods.vbnl as V
+    from vpl_addon.render import RenderSettings, render
+    monkeypatch.setattr(V, "AUTO_PATHS", (1000, 5000))
+    scene = lit_floor(PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3))
+    settings = RenderSettings(samples=samples, light_samples=1, method="vbnl", placement=MethodSettings(vpls=64))
+    assert settings.placement.vbnl.photons == 0
+    assert render(scene, settings).info["light_paths"] == paths
+    assert VBNLSettings().light_paths(0) == 1000 and VBNLSettings(photons=7).light_paths(10 ** 9) == 7
+
+
 def test_light_gathered_through_coloured_glass_takes_its_colour():
     """The lit floor with a pane of tint (0.3, 0.6, 1) at 1.2 m, between the lamp and the camera's ceiling: the
     ceiling's indirect light comes from the floor's lights through the pane, so the gather's light and BSDF samples

@@ -95,7 +95,7 @@ def plan(settings: RenderSettings, viewport: ViewportSettings, passes: tuple[str
 
     def budget(name):
         share = BUDGETS[name]
-        vpls, photons = settings.placement.vpls, vbnl.photons
+        vpls, photons = settings.placement.vpls, vbnl.light_paths(0)  # automatic: the fewest
         return replace(settings.placement, vpls=min(vpls, max(64, vpls // share)),
                        vbnl=replace(vbnl, photons=min(photons, max(4096, photons // share)), sampling=replace(
                            vbnl.sampling, samples=min(pairs, 1 if name == "preview" else 4))))

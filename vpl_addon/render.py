@@ -25,7 +25,7 @@ from __future__ import annotations
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from typing import Callable
 
@@ -205,6 +205,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     cam = scene.camera.around(settings.gather.interleave if filtering else 0)
     _, _, w, h = cam.pixel_region
     vpls, d_min, permutation, context = None, 0.0, None, None
+    vbnl = settings.placement.vbnl  # its automatic light paths follow the camera samples (``light_paths``)
+    placement = replace(settings.placement, vbnl=replace(vbnl, photons=vbnl.light_paths(w * h * settings.samples)))
     sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
     try:
         if need_indirect:
@@ -214,12 +216,12 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                                     np.random.default_rng([settings.seed, 1 << 21]),
                                     None if sequence is None else partial(sequence.still, scene))
             if sequence is None:
-                vpls, result.info = place(settings.method, context, settings.placement)
+                vpls, result.info = place(settings.method, context, placement)
             else:
-                vpls, result.info = sequence.place(METHODS[settings.method], context, settings.placement)
+                vpls, result.info = sequence.place(METHODS[settings.method], context, placement)
             guard("place", {"VPL intensity": vpls.intensity})
             if sampled is None:
-                d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
+                d_min = clamp_distance(scene.surface_area, placement.vpls, settings.gather.clamp)
                 permutation = context.rng.permutation(len(vpls))
             result.seconds["place"] = time.perf_counter() - t0
             # light over metal needs no VPL (the lights' own light the metal reflects)
@@ -247,7 +249,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if sampled is None:
             gather_spp, repeats = min(settings.indirect_samples, settings.samples), 1
         else:  # the method's sample pairs per pixel, spread over the camera samples
-            pairs = METHODS[settings.method].gather_samples(settings.placement, settings.samples)
+            pairs = METHODS[settings.method].gather_samples(placement, settings.samples)
             gather_spp = min(pairs, settings.samples)
             repeats = -(-pairs // gather_spp)
 
@@ -295,7 +297,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                     light = summed(sub, None, gbuf.pixel_of_hit[rows], rng)
                 else:
                     many = np.repeat(rows, repeats)
-                    light = sampled(sub if repeats == 1 else surf.take(many), vpls, context, settings.placement, rng,
+                    light = sampled(sub if repeats == 1 else surf.take(many), vpls, context, placement, rng,
                                     pixel=gbuf.sample[many] // gbuf.spp)
                     light = light.reshape(len(rows), repeats, 3).mean(axis=1)
                 guard("gather", {P.DIFFUSE_INDIRECT: light})
@@ -305,7 +307,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
                         reflected = summed(surf.take(shiny), lobe.take(shiny), gbuf.pixel_of_hit[shiny], rng)
                     else:
                         many = np.repeat(shiny, repeats)
-                        reflected = sampled(surf.take(many), vpls, context, settings.placement, rng,
+                        reflected = sampled(surf.take(many), vpls, context, placement, rng,
                                             glossy=lobe.take(many),
                                             pixel=gbuf.sample[many] // gbuf.spp)
                         reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)

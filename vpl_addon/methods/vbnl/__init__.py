@@ -58,6 +58,7 @@ SPECULAR_EXTENSION = 4  # metal surfaces a candidate's camera path may pass befo
 LIFT = 0.05  # a light's reach is found by rays this many radii above its plane (``open_reach``)
 REFINE = 16  # catchment points, as a multiple, for a light that few of its first points found (``catchment``)
 AHEAD = 8  # batches of photons traced before their lights exist (about 80 MB at PATHS_PER_BATCH)
+AUTO_PATHS = (1 << 18, 1 << 20)  # the automatic light paths' range (``VBNLSettings.light_paths``)
 USES_STILL = True  # a sequence's candidates come from its still scene: a bake finds what moves before its first frame
 
 
@@ -66,7 +67,7 @@ class VBNLSettings:
     candidates: int = 10  # M / N: camera candidates per kept light
     elimination: str = "adaptive"  # adaptive (eq. 2), uniform (eq. 1) or none (random subset)
     local: int = 32  # m of eq. 2: the neighbours that estimate a candidate's local density
-    photons: int = 1 << 18  # light paths traced for photon splitting
+    photons: int = 0  # light paths traced for photon splitting; 0: automatic (``light_paths``)
     area_samples: int = 32  # surface points per light that measure its catchment
     sampling: virtual_light_sampling.SamplingSettings = field(
         default_factory=virtual_light_sampling.SamplingSettings)
@@ -75,8 +76,18 @@ class VBNLSettings:
         if self.elimination not in MODES:
             raise ValueError(f"unknown sample elimination {self.elimination!r}; choose one of {', '.join(MODES)}")
         if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 0:
-            raise ValueError("vbnl needs candidates >= 1, photons >= 0 and gather samples >= 0 (0: one per camera "
-                             "sample)")
+            raise ValueError("vbnl needs candidates >= 1, photons >= 0 (0: automatic) and gather samples >= 0 (0: one "
+                             "per camera sample)")
+
+    def light_paths(self, camera_samples: int) -> int:
+        """The light paths a render with ``camera_samples`` in all (pixels x samples per pixel) traces: ``photons``,
+        or if that is 0 a quarter of the camera samples within ``AUTO_PATHS``. Photon splitting gives each light the
+        photons of its catchment, 64 a light at 2^18 paths and 4096 lights, so each light's intensity carries a few
+        per cent of noise and the image a blotch per light, which more camera samples and the denoiser leave; four
+        times the paths take a fifth off cornell_sun's error in 4 x 4 blocks at 64 samples and a tenth off
+        cornell_area's (bench/README.md, "Thirty-first session"). Tied to the camera samples, they cost the same share
+        of the render at any size, and leave renders of up to 16 samples at 256 x 256 as they were."""
+        return self.photons or int(np.clip(camera_samples // 4, *AUTO_PATHS))
 
 
 def _bsdf_bounce(scene, tracer, x, rng: np.random.Generator):
