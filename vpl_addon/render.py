@@ -128,9 +128,9 @@ def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarra
                      warnings: list[str], what: str, prefilter: str, quality: str, samples: int) -> None:
     """Combined's colour (H,W,4) denoised in place (``core.denoise``, with Cycles' ``prefilter`` and ``quality``)
     with the guides (H,W,3), the means of ``samples`` camera samples per pixel (``core.denoise.prefilter_for``), its
-    progress told as "denoising" (``progress`` may cancel it: ``Cancelled``); a black
-    picture stays black (OIDN would leave traces of 1e-6); without OIDN on this system, one warning in ``warnings``
-    that names ``what`` is not denoised, and the image as it is."""
+    progress told as "denoising" (``progress`` may cancel it: ``Cancelled``); a black picture stays black (OIDN
+    would leave traces of 1e-6); without OIDN on this system, one warning in ``warnings`` that names ``what`` is not
+    denoised, and the image as it is."""
     if not combined[..., :3].any():
         return
     told = None if progress is None else (lambda done: progress(done, "denoising"))
