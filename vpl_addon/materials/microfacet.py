@@ -532,15 +532,17 @@ def compensation(roughness: np.ndarray, f0: np.ndarray, b: np.ndarray,
 
 def _seen_at(mu, roughness, metallic, specular=0.0, edge=0.0, dielectric=0.0, eta=1.0) -> SimpleNamespace:
     """The fields ``_lobe_terms`` reads for points (K,) seen at view cosines ``mu`` (normal +z, incident (0, 0,
-    -mu), so that the cosine is ``mu`` exactly, NaN included)."""
+    -mu), so that the cosine is ``mu`` exactly, NaN included), as writable float64 copies: the types the engine's
+    surfaces have, so that ``_add_lobe`` is not compiled again for read-only views."""
     mu = np.asarray(mu, np.float64)
     k = len(mu)
-    rows3 = (lambda a: np.broadcast_to(np.asarray(a, np.float64), (k, 3)))
+
+    def rows(value, *shape):
+        return np.array(np.broadcast_to(np.asarray(value, np.float64), (k, *shape)))
     return SimpleNamespace(
-        metallic=np.full(k, metallic), roughness=np.broadcast_to(np.asarray(roughness, np.float64), (k,)),
-        shading_normal=rows3([0.0, 0.0, 1.0]), incident=np.stack([np.zeros(k), np.zeros(k), -mu], axis=1),
-        specular=rows3(specular), edge=rows3(edge), dielectric=rows3(dielectric),
-        eta=np.broadcast_to(np.asarray(eta, np.float64), (k,)))
+        metallic=rows(metallic), roughness=rows(roughness), shading_normal=rows([0.0, 0.0, 1.0], 3),
+        incident=np.stack([np.zeros(k), np.zeros(k), -mu], axis=1), specular=rows(specular, 3),
+        edge=rows(edge, 3), dielectric=rows(dielectric, 3), eta=rows(eta))
 
 
 @dataclass
