@@ -34,7 +34,8 @@ import numpy as np
 
 from ..operators.extract import ExtractionError, extract
 from ..operators.output import render_to
-from ..operators.reference import SEED, TWIN_SEED, configure_cycles, make_reference, reference_hash, stored_info
+from ..operators.reference import SEED, TWIN_SEED, cache_entry, configure_cycles, make_reference, reference_hash, \
+    stored_info
 from ..vpl_addon.core import passes as P
 from ..vpl_addon.core import tracer as tracer_module
 from ..vpl_addon.core.exr import read_passes
@@ -255,8 +256,8 @@ def twin_for(blend: str, percentage: int | None, folder: str, cache_dir: str | N
     ``clean_rrmse`` and ``noise_floor`` need beside the reference."""
     path = find_reference(blend, percentage, folder, TWIN_SEED)
     if path is None and cache_dir and samples:
-        cached = os.path.join(cache_dir, f"{reference_hash(blend, samples, None, percentage, TWIN_SEED)}.exr")
-        path = cached if os.path.exists(cached) else None
+        cached, held = cache_entry(cache_dir, reference_hash(blend, samples, None, percentage, TWIN_SEED))
+        path = cached if held else None
     return path, (read_passes(path)[0][P.COMBINED] if path else None)
 
 

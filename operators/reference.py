@@ -71,13 +71,20 @@ def configure_cycles(scene, samples: int) -> None:
             setattr(layer, toggle, True)
 
 
+def cache_entry(cache_dir: str, digest: str) -> tuple[str, bool]:
+    """The file of ``cache_dir`` that keeps the reference of hash ``digest``, and whether it holds it now (the file
+    exists and records that hash)."""
+    path = os.path.join(cache_dir, f"{digest}.exr")
+    return path, os.path.exists(path) and stored_info(path).get("hash") == digest
+
+
 def make_reference(blend_path: str, out_path: str, samples: int, frame: int | None = None,
                    cache_dir: str | None = None, percentage: int | None = None, seed: int = SEED) -> dict:
     """Render (or fetch from the cache) the Cycles reference of ``blend_path`` with Cycles' ``seed``; returns its
     record. A twin (a seed other than ``SEED``) keeps Combined alone: it serves only to measure the noise."""
     digest = reference_hash(blend_path, samples, frame, percentage, seed)
-    cached = os.path.join(cache_dir, f"{digest}.exr") if cache_dir else None
-    if cached and os.path.exists(cached) and stored_info(cached).get("hash") == digest:
+    cached, held = cache_entry(cache_dir, digest) if cache_dir else (None, False)
+    if held:
         shutil.copyfile(cached, out_path)
         return {**stored_info(out_path), "cached": True}
     bpy.ops.wm.open_mainfile(filepath=os.path.abspath(blend_path))
