@@ -11,7 +11,8 @@ With ``--functions`` the render runs under py-spy (a sampling profiler that sees
 embree's time included in the line that called them), and the functions and lines with the largest share of the
 samples are listed: a compiled kernel's time shows in the line that called it.
 
-    .venv/bin/python bench/profile.py [SCENE.blend] [--size WxH] [--method M] [--functions [--rate HZ]] [--top N]
+    .venv/bin/python bench/profile.py [SCENE.blend] [--size WxH] [--method M] [--samples N]
+        [--functions [--rate HZ]] [--top N]
 """
 from __future__ import annotations
 
@@ -101,6 +102,8 @@ def render_once(args) -> None:
         settings.method = args.method
     if args.block_pixels:
         settings.block_pixels = args.block_pixels
+    if args.samples:
+        settings.samples = args.samples
     render(scene, RenderSettings(samples=1, light_samples=1, method=settings.method))  # kernels loaded
     with PeakMemory() as memory:
         t0 = time.perf_counter()
@@ -124,6 +127,7 @@ def main():
     ap.add_argument("--size", help="render at WxH pixels instead of the scene's resolution, e.g. 1920x1080")
     ap.add_argument("--method", help="placement method (default: the scene's)")
     ap.add_argument("--block-pixels", type=int, help="pixels per block (default: the engine's)")
+    ap.add_argument("--samples", type=int, help="camera samples per pixel (default: the scene's)")
     ap.add_argument("--functions", action="store_true", help="profile the run with py-spy")
     ap.add_argument("--top", type=int, default=25)
     ap.add_argument("--rate", type=int, default=100, help="py-spy's samples per second (it falls behind at 200 "
@@ -136,7 +140,8 @@ def main():
     spy = pathlib.Path(sys.executable).with_name("py-spy")
     command = [sys.executable, __file__, args.scene, *(["--size", args.size] if args.size else []),
                *(["--method", args.method] if args.method else []),
-               *(["--block-pixels", str(args.block_pixels)] if args.block_pixels else [])]
+               *(["--block-pixels", str(args.block_pixels)] if args.block_pixels else []),
+               *(["--samples", str(args.samples)] if args.samples else [])]
     with tempfile.TemporaryDirectory() as folder:
         raw = os.path.join(folder, "samples.txt")
         subprocess.run([str(spy), "record", "--rate", str(args.rate), "--format", "raw", "--output", raw, "--",
