@@ -61,8 +61,8 @@ def local_choice(position: np.ndarray, normal: np.ndarray, lights, choice: np.nd
     lo, hi = (np.asarray(b, np.float64) for b in box)
     side = max(cell_side(lights), float(np.max(hi - lo)) / 65536.0, 1e-300)  # the keys fit in 64 bits
     dims = np.floor((hi - lo) / side).astype(np.int64) + 1
-    row, keys = _cells(position, normal, lo, side, dims)
-    table, cdf = _table(keys, lo, side, dims, lights.position, lights.normal, lights.radius, choice, order, LOCAL)
+    row, cells = _cells(position, normal, lo, side, dims)
+    table, cdf = _table(cells, lo, side, dims, lights.position, lights.normal, lights.radius, choice, order, LOCAL)
     return row, table, cdf
 
 

@@ -8,7 +8,7 @@ combined by multiple importance sampling with the power heuristic (eq. 5):
   its disc (the light's support: ``photon_lights``), drawn with the profile of its share; the ray's hit y adds
   s_j(y) L_j, zero outside the support (s_j is the light's share of y, L_j its radiance). Deviations: at the
   camera's points the choice is their cell's (``local_choice``: nine tenths by the light each light brings to the
-  cell, one tenth by power), which took a sixth of the gather's noise in 4 x 4 blocks off cornell_area; and Li et
+  cell, one tenth by power), which took a quarter of the gather's noise in 4 x 4 blocks off cornell_area; and Li et
   al. draw the direction uniform in the cone that holds the light's sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos
   theta_j)); most of that cone looks past the thin disc (36 % of the lit light samples met it in cornell_area, 66 %
   toward the disc), and the disc's samples cut the gather's noise by 11 % there at the same time (bench/README.md);
