@@ -13,8 +13,6 @@ from vpl_addon.gather.virtual_lights import VirtualLights
 from vpl_addon.lights import LightSet, PointLight
 from vpl_addon.materials.microfacet import GlossyLobe
 from vpl_addon.materials.surface import Surface, diffuse_cosine
-from vpl_addon.methods.vbnl import local_choice as local_choice_module
-from vpl_addon.methods.vbnl.local_choice import LOCAL, local_choice
 from vpl_addon.methods.vbnl.photon_lights import PhotonLights
 from vpl_addon.methods.vbnl import virtual_light_sampling
 from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
@@ -194,38 +192,6 @@ def grid_lights(rng):
                         catchment=rng.uniform(1.0, 2.0, len(position)), by_bounce=by_bounce)
 
 
-def test_a_cell_chooses_the_lights_that_light_it_and_leaves_every_light_its_power_share():
-    """``local_choice``: a cell's probabilities sum to one and give every light at least (1 - ``LOCAL``) of its
-    power's share, their cumulative sums in the tree's order are the table's, and ``_descend`` draws each point's
-    lights with its cell's probabilities. A point on the wall draws the floor's lights in front of it (the wall's
-    own lie in its plane and cannot light it: they keep their power's share alone), a point on the floor the
-    wall's, and a point's row is the same alone as among others (a path's lights do not depend on its batch)."""
-    lights = grid_lights(np.random.default_rng(2))
-    power = lights.intensity.sum(axis=1)
-    choice = power / power.sum()
-    box = (np.array([-3.0, -3.0, 0.0]), np.array([3.0, 3.0, 4.0]))
-    order, nodes = lights.tree(box)
-    points = np.array([[0.0, 1.99, 1.0], [0.0, -1.0, 0.01], [2.5, -2.5, 0.01]])
-    normals = np.array([[0.0, -1.0, 0.0], [0.0, 0.0, 1.0], [0.0, 0.0, 1.0]])
-    row, table, cdf = local_choice(points, normals, lights, choice, order, box)
-    assert len(table) == 3 and np.allclose(table.sum(axis=1), 1.0)
-    assert (table >= (1.0 - LOCAL) * choice - 1e-15).all()
-    assert (cdf[:, 0] == 0.0).all() and np.allclose(np.diff(cdf, axis=1), table[:, order])
-    floor = slice(0, 56)  # grid_lights: 56 on the floor, then 56 on the wall
-    wall = slice(56, 112)
-    assert table[row[0], floor].sum() > 0.9 and table[row[0], wall] == pytest.approx((1.0 - LOCAL) * choice[wall])
-    assert table[row[1], wall].sum() > 0.9 and table[row[1], floor] == pytest.approx((1.0 - LOCAL) * choice[floor])
-    for i in range(3):
-        alone = local_choice(points[i:i + 1], normals[i:i + 1], lights, choice, order, box)
-        np.testing.assert_array_equal(alone[1][alone[0][0]], table[row[i]])
-    u = np.random.default_rng(3).random((len(lights).bit_length() + 4, 300_000))
-    rows = np.arange(u.shape[1]) % 3
-    drawn = order[_descend(cdf, row[rows], *nodes, u)]
-    for i in range(3):
-        share = np.bincount(drawn[rows == i], minlength=len(lights)) / np.sum(rows == i)
-        assert np.abs(share - table[row[i]]).sum() < 0.05  # the noise of 100,000 draws: about 0.02
-
-
 def test_sampled_gather_gives_the_light_it_gave_before_its_kernels(monkeypatch):
     """The photon lights' gather (light and BSDF samples with MIS, camera paths extended through the diffuse part
     and through metal) for fixed lights, points and random numbers: the sums the numpy version gave (commit
@@ -237,12 +203,8 @@ def test_sampled_gather_gives_the_light_it_gave_before_its_kernels(monkeypatch):
     95.58, 87.56, 90.88 and 47215 weighted, and 2170 rays), and when the light's choice came to descend a tree with a
     number per level (``_descend``; 97.14, 88.54, 91.85, 47698, glossy 0.781, 0.667, 0.531 and 2177 rays; over 20
     seeds the diffuse and glossy sums agree with the old code's: 267 +- 4 against 266 +- 5, 1.69 +- 0.08 against
-    1.85 +- 0.11), and when a cell's light choice came to mix the light each light brings there with the power
-    at the first vertex (``local_choice``; 97.34, 87.36, 92.48, 48768, glossy 0.832, 0.610, 0.472 and 2141 rays,
-    which ``LOCAL`` 0 still gives; over 20 seeds 263.0 +- 3.7 against 264.5 +- 4.8 and 1.632 +- 0.038 against 1.693
-    +- 0.080, the spread of a seed's sums 16.4 against 21.4 and 0.172 against 0.359). Russian roulette came later
-    than the rest: here every path with a throughput goes on, as it did then (``test_roulette`` tests the
-    roulette)."""
+    1.85 +- 0.11). Russian roulette came later than the rest: here every
+    path with a throughput goes on, as it did then (``test_roulette`` tests the roulette)."""
     def every_path(weight, rng, u=None):
         rows = np.nonzero(weight.max(axis=1) > 0.0)[0]
         return rows, np.ones(len(rows))
@@ -260,14 +222,12 @@ def test_sampled_gather_gives_the_light_it_gave_before_its_kernels(monkeypatch):
     # to 1e-6: numpy's float64 sines and cosines differ in their last bits between CPUs (AVX-512 or not), which
     # moves these sums by 6e-8 (recorded on an AVX-512 CPU; an AMD EPYC without it gives 97.335169...); every
     # change of the code recorded above moved them by 1e-3 or more
-    np.testing.assert_allclose(diffuse.sum(axis=0), [95.72854914945802, 87.82067594493587, 93.3138714154133],
+    np.testing.assert_allclose(diffuse.sum(axis=0), [97.33517498303605, 87.36275776273688, 92.47576343709245],
                                rtol=1e-6)
-    assert (diffuse * np.arange(len(diffuse))[:, None]).sum() == pytest.approx(47417.28708517406, rel=1e-6)
-    np.testing.assert_allclose(glossy.sum(axis=0), [0.7369096304389942, 0.5744076817932703, 0.42767706962649654],
+    assert (diffuse * np.arange(len(diffuse))[:, None]).sum() == pytest.approx(48767.92678870946, rel=1e-6)
+    np.testing.assert_allclose(glossy.sum(axis=0), [0.8320080798107234, 0.6101019520334934, 0.47211111760220387],
                                rtol=1e-6)
-    # light samples that see their disc edge-on or from behind are not traced: fewer since cells choose the lights
-    # that face them
-    assert tracer.rays_traced == 2667
+    assert tracer.rays_traced == 2141  # light samples that see their disc edge-on are not traced
 
 
 def test_light_samples_toward_the_discs_keep_the_gather_unbiased(monkeypatch):
@@ -275,10 +235,8 @@ def test_light_samples_toward_the_discs_keep_the_gather_unbiased(monkeypatch):
     pdf, estimate the same light as BSDF samples alone (light sampling off: every light's choice 0, so the BSDF
     samples keep their whole weight): one bounce from the lights, the sums of each point's 1024 estimates agree to
     the noise (about 0.6 %: 15727-15851 against 15683-15852 over four seeds; with 512 estimates a seed's draw was
-    2.3 % off once), and the MIS estimate's relative spread is smaller (1.50 against 2.99; 2.14 with the cone of
-    the light's sphere). Light chosen by power alone instead of by the points' cells (``local_choice.LOCAL`` 0)
-    estimates the same light (15755 and 15865 for seeds 4 and 6, against 15738 and 15790) with a larger spread
-    (1.75)."""
+    2.3 % off once), and the MIS estimate's relative spread is smaller (1.75 against 2.99; 2.14 with the cone of
+    the light's sphere)."""
     scene = metal_plate_room()
     tracer = Tracer(scene.triangles)
     lights = grid_lights(np.random.default_rng(2))
@@ -288,9 +246,6 @@ def test_light_samples_toward_the_discs_keep_the_gather_unbiased(monkeypatch):
     sampling = SamplingSettings(extension=False)
     light_set = LightSet(scene)
     both = sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 1)
-    monkeypatch.setattr(local_choice_module, "LOCAL", 0.0)
-    by_power = sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 1)
-    monkeypatch.undo()
     estimate = virtual_light_sampling._estimate
 
     def bsdf_alone(v, out, lights, scene, tracer, light_set, numbers, rng, settings, radiance, choice, *rest):
@@ -298,20 +253,17 @@ def test_light_samples_toward_the_discs_keep_the_gather_unbiased(monkeypatch):
                         rest[0], rest[1], 0.0, *rest[3:])
     monkeypatch.setattr(virtual_light_sampling, "_estimate", bsdf_alone)
     alone = sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 1)
-    per_point = [e.sum(axis=1).reshape(len(surface), -1) for e in (both, alone, by_power)]
+    per_point = [e.sum(axis=1).reshape(len(surface), -1) for e in (both, alone)]
     assert per_point[0].sum() == pytest.approx(per_point[1].sum(), rel=0.02)
-    assert per_point[2].sum() == pytest.approx(per_point[1].sum(), rel=0.02)
     spread = [(p.std(axis=1) / np.maximum(p.mean(axis=1), 1e-12)).mean() for p in per_point]
-    assert spread[0] < 0.6 * spread[1] and spread[0] < 0.9 * spread[2]
+    assert spread[0] < 0.7 * spread[1]
 
 
 def test_a_pixels_sample_pairs_from_one_net_each_cut_its_noise():
     """The gather's pairs of one pixel drawn from scrambled nets (``pixel``: the BSDF's direction, the light's point,
     the light's choice, at every depth) estimate the same light as independent numbers, with a pixel's mean of 64
-    pairs spread over seeds 1.67x less (0.061 against 0.101 of its value, 4 seeds; cornell_area's picture as
-    rendered at 64 pairs: rMAE 0.063 -> 0.035). Before the cells chose the lights by the light they bring
-    (``local_choice``) it was 2.35x (0.077 against 0.181, 8 seeds): the better choice took most of the noise that
-    the nets took out of the light samples, and the bar went from 0.6 to 0.7."""
+    pairs spread over seeds 2.35x less (0.077 against 0.181 of its value, 8 seeds; cornell_area's picture as
+    rendered at 64 pairs: rMAE 0.063 -> 0.035)."""
     scene = metal_plate_room()
     tracer = Tracer(scene.triangles)
     lights = grid_lights(np.random.default_rng(2))
@@ -328,7 +280,7 @@ def test_a_pixels_sample_pairs_from_one_net_each_cut_its_noise():
                                 for seed in range(4)])
     assert means[True].mean() == pytest.approx(means[False].mean(), rel=0.03)
     spread = {nets: (m.std(axis=0) / m.mean(axis=0)).mean() for nets, m in means.items()}
-    assert spread[True] < 0.7 * spread[False]
+    assert spread[True] < 0.6 * spread[False]
 
 
 def test_gather_batches_hold_at_most_their_budget_of_pairs(monkeypatch):
@@ -388,7 +340,7 @@ def test_the_light_tree_draws_by_power_and_changes_few_draws_when_the_lights_cha
         return np.r_[0.0, np.cumsum(p / p.sum())]
 
     def descend(p, code, u):
-        return _descend(cdf(p)[None], np.zeros(u.shape[1], np.int64), *radix_tree(code), u)
+        return _descend(cdf(p), *radix_tree(code), u)
     u = rng.random((len(power).bit_length() + 4, 400_000))
     drawn = descend(power, code, u)
     share = np.bincount(drawn, minlength=len(power)) / u.shape[1]
@@ -407,5 +359,5 @@ def test_the_light_tree_draws_by_power_and_changes_few_draws_when_the_lights_cha
     without = kept[descend(power[kept], code[kept], u)]
     assert (without != drawn).mean() < 0.005
     one = tuple(np.zeros(0, np.int64) for _ in range(5))
-    assert _descend(np.array([[0.0, 1.0]]), np.zeros(5, np.int64), *one, u[:1, :5]).tolist() == [0] * 5  # one light
+    assert _descend(np.array([0.0, 1.0]), *one, u[:1, :5]).tolist() == [0] * 5  # one light
     assert set(descend(np.array([0.0, 1.0]), np.zeros(2, np.uint64), u[:1]).tolist()) == {1}  # no power: never

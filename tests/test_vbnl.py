@@ -506,8 +506,7 @@ def test_the_extension_takes_what_the_covering_lights_leave_whatever_light_they_
                               np.full(1, -1, np.int64), np.zeros(1), one / np.pi, np.zeros((1, 3)),
                               np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, -1.0]]),
                               np.zeros((1, 3)), np.zeros(1, np.int64), np.zeros(1, np.int64), one,
-                              np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, -1.0]]), np.full(1, 0.1),
-                              one[None, :], np.zeros(1, np.int64), np.full((1, 3), light_held), np.full(1, 1e6), 40.0,
-                              40.0, True)
+                              np.array([[0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, -1.0]]), np.full(1, 0.1), one,
+                              np.full((1, 3), light_held), np.full(1, 1e6), 40.0, 40.0, True)
     assert mean_share[0] == 1.0
     assert (out[0, 0] > 0.0) == (light_held > 0.0)  # the lights' part: their light (by MIS, the BSDF sample's share)

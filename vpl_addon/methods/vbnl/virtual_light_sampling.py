@@ -1,17 +1,15 @@
 """Rendering with virtual blue noise lighting (Li et al., HPG 2022, sec. 4): photon lights sampled, not summed.
 
-At a shading point x, one *BSDF sample* and one *light sample* estimate the light from the photon lights,
-combined by multiple importance sampling with the power heuristic (eq. 5):
+At a shading point x, one *BSDF sample* and one *power-based light sample* estimate the light from the photon
+lights, combined by multiple importance sampling with the power heuristic (eq. 5):
 
-- light sample (eq. 4): light j with probability P_j / sum P (drawn down a tree of the lights with a number per
+- power-based (eq. 4): light j with probability P_j / sum P (drawn down a tree of the lights with a number per
   level, ``_descend``, so that a sequence's next frame draws the same lights), then a direction toward a point of
   its disc (the light's support: ``photon_lights``), drawn with the profile of its share; the ray's hit y adds
-  s_j(y) L_j, zero outside the support (s_j is the light's share of y, L_j its radiance). Deviations: at the
-  camera's points the choice is their cell's (``local_choice``: nine tenths by the light each light brings to the
-  cell, one tenth by power), which took a quarter of the gather's noise in 4 x 4 blocks off cornell_area; and Li et
-  al. draw the direction uniform in the cone that holds the light's sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos
-  theta_j)); most of that cone looks past the thin disc (36 % of the lit light samples met it in cornell_area, 66 %
-  toward the disc), and the disc's samples cut the gather's noise by 11 % there at the same time (bench/README.md);
+  s_j(y) L_j, zero outside the support (s_j is the light's share of y, L_j its radiance). Deviation: Li et al. draw
+  the direction uniform in the cone that holds the light's sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j));
+  most of that cone looks past the thin disc (36 % of the lit light samples met it in cornell_area, 66 % toward the
+  disc), and the disc's samples cut the gather's noise by 11 % there at the same time (bench/README.md);
 - BSDF: a direction w_r from the point's lobe (cosine-weighted for the diffuse one) traced to y_r; every light
   whose sphere holds y_r adds s_i(y_r) L_i.
 
@@ -48,7 +46,6 @@ from ...lights.direct import direct_light
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import bounce_tinted
 from ...paths.vertices import PathVertices, at_metal, merged, roulette
-from .local_choice import local_choice
 
 
 TREE_SLACK = 4  # numbers for the light tree's levels past log2 N (lights on a surface make it deeper than that)
@@ -94,12 +91,12 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         power = np.maximum(lights.intensity_upto(max_depth - depth).sum(axis=1), 0.0)
         total_power = power.sum()
         choice = power / total_power if total_power > 0 else np.zeros_like(power)
-        tree = (order, nodes)
+        tree = (order, np.r_[0.0, np.cumsum(choice[order])], nodes)
         extend = settings.extension and depth + 1 < max_depth
         following = []
         for v in level:
             following += _estimate(v, out, lights, scene, tracer, light_set, numbers, draws, settings, radiance,
-                                   choice, tree, density, total_power, extend, depth == 0)
+                                   choice, tree, density, total_power, extend)
         level = merged(following)
     return out
 
@@ -114,12 +111,9 @@ def _numbers(paths: PathNumbers | None, rng, depth: int, count: int, owner: np.n
 
 
 def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, radiance, choice, tree, density,
-              total_power, extend, cells=True):
+              total_power, extend):
     """Adds the light sample and the BSDF sample of the vertices ``v`` to ``out``; returns the vertices the
-    camera path continues to (eq. 6-9 for the diffuse part at each hit, always for a metallic lobe there). With
-    ``cells`` the light samples choose by the vertices' cells (``local_choice``), else by power: the camera's
-    points are many to a cell, the vertices of extended paths few (the cells' tables would cost more than they
-    give).
+    camera path continues to (eq. 6-9 for the diffuse part at each hit, always for a metallic lobe there).
     ``numbers(count, owner, branch, stream)`` gives the uniform numbers of the vertices ``branch`` of the paths
     ``owner`` at this depth, ``rng`` the rest (a metallic hit's).
 
@@ -129,10 +123,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
     u = numbers(4, owner, branch, 0)
     w, sampled, p_bsdf = v.sample(u[:2])
     levels = numbers(max(len(lights) - 1, 1).bit_length() + TREE_SLACK, owner, branch, 3, nets=False)
-    cell, table, cdf = local_choice(point.position, point.shading_normal, lights, choice, tree[0], scene.bounds,
-                                    cells)
-    lit, toward, drawn, p_light = _light_directions(point, lights, u[2:], levels, cell, table, cdf, tree,
-                                                    total_power)
+    lit, toward, drawn, p_light = _light_directions(point, lights, u[2:], levels, choice, tree, total_power)
     rows = np.concatenate([lit, np.nonzero(p_bsdf > 0.0)[0]])
     y, at, tint = bounce_tinted(scene, tracer, point, np.concatenate([toward[lit], w[rows[len(lit):]]]), rows)
     source = rows[at]  # the vertex each hit came from
@@ -149,7 +140,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
     pair, light, share = _covering(lights, y)
     mean_share = _add_samples(out, owner, source, weight, hit_light, p_light, pdf, toward, w, y.position,
                               y.shading_normal, point.position, pair, light, share, lights.position,
-                              lights.normal, lights.radius, table, cell, radiance, density, float(settings.n_min),
+                              lights.normal, lights.radius, choice, radiance, density, float(settings.n_min),
                               max(settings.n_max - settings.n_min, 1e-9), extend)
     if not extend:
         return []
@@ -158,19 +149,17 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
                      out)
 
 
-def _light_directions(point, lights, u, levels, cell, table, cdf, tree, total_power):
-    """Light sampling (eq. 4, with the choice of ``local_choice``): per point a light j with its cell's
-    probability ``table[cell, j]`` (``_descend``, with the numbers ``levels`` and the cells' cumulative ``cdf`` in
-    the ``tree``'s order), then a point on its disc by its share's profile (``_toward_discs``), with the uniform
+def _light_directions(point, lights, u, levels, choice, tree, total_power):
+    """Power-based light sampling (eq. 4): per point a light j with probability P_j / sum P (``_descend``, with
+    the numbers ``levels``), then a point on its disc by its share's profile (``_toward_discs``), with the uniform
     numbers ``u`` (2, K). Returns (the points whose direction leaves their surface, the directions, j, the pdfs
     p_j(w))."""
     k = len(point)
     if total_power <= 0:
         return np.zeros(0, np.int64), np.zeros((k, 3)), np.zeros(k, np.int64), np.zeros(k)
-    order, nodes = tree
-    j = order[_descend(cdf, cell, *nodes, levels)]
-    w, p_light = _toward_discs(point.position, j, lights.position, lights.normal, lights.radius, table, cell, u[0],
-                               u[1])
+    order, cdf, nodes = tree
+    j = order[_descend(cdf, *nodes, levels)]
+    w, p_light = _toward_discs(point.position, j, lights.position, lights.normal, lights.radius, choice, u[0], u[1])
     lit = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(point.geometric_normal, w) > 0.0) &
                      (p_light > 0.0))[0]
     return lit, w, j, p_light
@@ -207,19 +196,19 @@ def _extended(y, rows, owner, branch, carried, mean_share, light_set, tracer, nu
 
 
 @kernel
-def _descend(cdf, row, lo, hi, mid, left, right, u):
-    """(K,) positions in the lights' tree order drawn with the probabilities of each one's ``row`` of ``cdf``
-    (R, N + 1), the cumulative probabilities in tree order from 0: each descends the lights' tree
+def _descend(cdf, lo, hi, mid, left, right, u):
+    """(K,) positions in the lights' tree order drawn with probability P_j / sum P: each descends the lights' tree
     (``PhotonLights.tree``: internal nodes lo, hi, mid, left, right) from the root to the left or right in
-    proportion to the two halves' probability. Every level takes a number of its own from ``u`` (levels, K); below
-    the last, the last is rescaled to the part of [0, 1) it fell in.
+    proportion to the two halves' power, ``cdf`` (N + 1,) being the normalised cumulative power in tree order from
+    0. Every level takes a number of its own from ``u`` (levels, K); below the last, the last is rescaled to the
+    part of [0, 1) it fell in.
 
-    The probabilities are those of inverting the cumulative probabilities with one number, but the draws are
-    steady: when the powers change a little (the next frame of a sequence), a draw changes only where a level's
-    number falls between a node's old and new split, while an inverted cumulative power moves every boundary past
-    the first change, and most draws go to a light further along (elsewhere in space). A light added or removed
-    (lights placed again around a moving object) changes the nodes above it, not the rest of the tree, since the
-    tree is split by the codes, not by counts. In the moving light's example a 1 cm move of the lamp changed Diffuse
+    The probabilities are those of inverting the cumulative power with one number, but the draws are steady: when
+    the powers change a little (the next frame of a sequence), a draw changes only where a level's number falls
+    between a node's old and new split, while an inverted cumulative power moves every boundary past the first
+    change, and most draws go to a light further along (elsewhere in space). A light added or removed (lights
+    placed again around a moving object) changes the nodes above it, not the rest of the tree, since the tree is
+    split by the codes, not by counts. In the moving light's example a 1 cm move of the lamp changed Diffuse
     Indirect by 1.0 % with the inverted cumulative power, 0.55 % with the tree, 0.52 % with the choice kept as it
     was (bench/README.md, "Steady draws")."""
     levels = u.shape[0]
@@ -229,11 +218,10 @@ def _descend(cdf, row, lo, hi, mid, left, right, u):
     for i in range(u.shape[1]):
         node, level = 0, 0
         x = u[0, i]
-        c = cdf[row[i]]
         while node >= 0:
             a, b, m = lo[node], hi[node], mid[node]
-            total = c[b] - c[a]
-            share = (c[m] - c[a]) / total if total > 0.0 else 0.5
+            total = cdf[b] - cdf[a]
+            share = (cdf[m] - cdf[a]) / total if total > 0.0 else 0.5
             if level < levels:
                 x = u[level, i]
             last = level + 1 >= levels  # the next level rescales this number
@@ -267,7 +255,7 @@ def _disc_density(x0, x1, x2, d0, d1, d2, centre, normal, radius):
 
 
 @kernel
-def _toward_discs(position, drawn, centre, normal, radius, table, cell, u1, u2):
+def _toward_discs(position, drawn, centre, normal, radius, choice, u1, u2):
     """Per point, a direction toward its light ``drawn``: a point q on the light's disc (its support: the surface
     within its sphere, within ``SLAB`` radii of its tangent plane) with density (1 - rho^2 / r^2) / (pi r^2 / 2),
     the profile of its share, and the pdf of the direction, P_j / sum P x ``_disc_density`` (0 seen edge-on).
@@ -289,8 +277,8 @@ def _toward_discs(position, drawn, centre, normal, radius, table, cell, u1, u2):
             continue
         d0, d1, d2 = d0 / dist, d1 / dist, d2 / dist
         w[i, 0], w[i, 1], w[i, 2] = d0, d1, d2
-        pdf[i] = table[cell[i], j] * _disc_density(position[i, 0], position[i, 1], position[i, 2], d0, d1, d2,
-                                                   centre[j], normal[j], radius[j])
+        pdf[i] = choice[j] * _disc_density(position[i, 0], position[i, 1], position[i, 2], d0, d1, d2, centre[j],
+                                           normal[j], radius[j])
     return w, pdf
 
 
@@ -313,7 +301,7 @@ def _blend_weight(footprint, density, n_min, span, extend):
 
 @kernel
 def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, normal, position, pair, light, share,
-                 centre, facing, radius, table, cell, radiance, density, n_min, span, extend):
+                 centre, facing, radius, choice, radiance, density, n_min, span, extend):
     """out[owner] += each hit's estimate; returns (H,) the mean w_v of the lights covering each BSDF sample's hit,
     by their shares (0 where none covers it or for a light sample), whatever light they hold: the lights' part is
     sum_i w_v,i s_i L_i and the extension's (1 - sum_i w_v,i s_i) L, which add up to L where the L_i are right on
@@ -344,8 +332,8 @@ def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, 
                 mine[h] += share[q]
             continue
         s = source[h]
-        p_i = table[cell[s], i] * _disc_density(position[s, 0], position[s, 1], position[s, 2], w[s, 0], w[s, 1],
-                                                w[s, 2], centre[i], facing[i], radius[i])
+        p_i = choice[i] * _disc_density(position[s, 0], position[s, 1], position[s, 2], w[s, 0], w[s, 1], w[s, 2],
+                                        centre[i], facing[i], radius[i])
         w_v = _blend_weight(footprint[h], density[i], n_min, span, extend)
         mis = _power_heuristic(pdf[h], p_i) * w_v
         r0, r1, r2 = radiance[i, 0] * share[q], radiance[i, 1] * share[q], radiance[i, 2] * share[q]
