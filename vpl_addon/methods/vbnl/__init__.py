@@ -13,7 +13,8 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    while steps 1-2 run (they do not depend on the lights; at most ``AHEAD`` batches are held) and on all the
    tracer's threads after them, share the intensity of every vertex among the lights covering it, kept apart by
    bounce so that an extended camera path uses only light of as many fewer bounces as it has extra vertices (the
-   scene's bounce limit holds for the whole path).
+   scene's bounce limit holds for the whole path); with the catchments' shapes, their moments give each light a
+   slope across its disc (``photon_lights.fit_slopes``).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``gather_samples`` times per pixel.
 
 In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
@@ -35,10 +36,11 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, replace
 from functools import partial
 from itertools import chain, islice
+from typing import NamedTuple
 
 import numpy as np
 
-from ...core.color import largest, luminance
+from ...core.color import LUMINANCE, largest, luminance
 from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
 from ...gather.virtual_lights import VirtualLights
 from ...materials.microfacet import GlossyLobe
@@ -47,7 +49,7 @@ from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
 from . import virtual_light_sampling
-from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, lid_heights
+from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, fit_slopes, lid_heights
 from .sample_elimination import MODES, eliminate
 
 PATHS_PER_BATCH = 1 << 16
@@ -164,8 +166,16 @@ def view_candidates(context, count: int, seed: int):
     return candidates(context.scene, context.tracer, count, np.random.default_rng(seed))
 
 
-def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> np.ndarray:
-    """(N,) A_j, the surface area of each light's share (``photon_lights``): ``per_light`` stratified points of
+class Catchment(NamedTuple):
+    """What ``catchment`` measures of each light's share s_j of the surface."""
+    area: np.ndarray  # (N,) A_j = integral s_j dA
+    centre: np.ndarray  # (N,3) integral s_j y dA / A_j (the light's position where A_j = 0)
+    flat: np.ndarray  # (N,) bool: every point of the disc within its reach found the surface (``fit_slopes``)
+
+
+def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -> Catchment:
+    """A_j, the surface area of each light's share (``photon_lights``), with its centre and whether the surface is
+    the whole disc (``Catchment``): ``per_light`` stratified points of
     the disc of radius r_j in the light's tangent plane, dropped onto the surface along -n_j by a ray from
     ``DROP`` r_j above to as far below, each standing for pi r_j^2 / per_light of the disc divided by the cosine
     between the surface and the disc; the sum of their shares s_j. Exact on flat surfaces; points past an edge
@@ -177,11 +187,13 @@ def catchment(lights, scene, tracer, per_light: int, rng: np.random.Generator) -
     L_j = I_j / A_j, a light as much too bright or dark (the living room had a light 20000 times the median
     radiance, a square blotch after the filter). Lights whose share is found by fewer than a quarter of their
     points are measured again with ``REFINE`` times as many."""
-    area, found = _dropped_shares(lights, np.arange(len(lights)), scene, tracer, per_light, rng)
+    found, missed, sums = _dropped_shares(lights, np.arange(len(lights)), scene, tracer, per_light, rng)
     few = np.nonzero(found < per_light / 4)[0]
     if len(few):
-        area[few] = _dropped_shares(lights, few, scene, tracer, per_light * REFINE, rng)[0]
-    return area
+        sums[few] = _dropped_shares(lights, few, scene, tracer, per_light * REFINE, rng)[2]
+    area = sums[:, 0]
+    offset = np.where(area[:, None] > 0.0, sums[:, 1:] / np.maximum(area, 1e-300)[:, None], 0.0)
+    return Catchment(area, lights.position + offset, missed == 0)
 
 
 def open_reach(position, normal, radius, tracer) -> np.ndarray:
@@ -206,10 +218,11 @@ def open_reach(position, normal, radius, tracer) -> np.ndarray:
 
 
 def _dropped_shares(lights, which, scene, tracer, per_light, rng):
-    """(area, points that found a share) of the lights ``which``, as ``catchment`` describes."""
-    area, found = np.zeros(len(which)), np.zeros(len(which))
+    """(points that found a share, points within the disc's reach that found no surface, (L, 4) sums of s_j dA and
+    s_j (y - y_j) dA) of the lights ``which``, as ``catchment`` describes."""
+    found, missed, sums = np.zeros(len(which)), np.zeros(len(which)), np.zeros((len(which), 4))
     if len(which) == 0 or per_light <= 0:
-        return area, found
+        return found, missed, sums
     step = max(1, POINTS_PER_BATCH // per_light)
     for lo in range(0, len(which), step):
         own = np.arange(lo, min(len(which), lo + step))
@@ -227,9 +240,16 @@ def _dropped_shares(lights, which, scene, tracer, per_light, rng):
         slope = np.abs(dot(y.geometric_normal, n[rows]))
         lids = lid_heights(tracer, y.position, y.geometric_normal, LID * float(r.max()))
         mine = lights.share_of(y.position, y.shading_normal, j[rows], lids) * (largest(y.albedo) > 0.0)
-        area += np.bincount(k[rows], mine * np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3), len(which))
+        patch = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)  # the surface a point stands for
         found += np.bincount(k[rows], mine > 0.0, len(which))
-    return area, found
+        # the points within the disc's reach that found no surface (an edge, a curve): the disc is not flat
+        sector = np.minimum(((np.arctan2(dy, dx) / (2.0 * np.pi) + 0.5) * SECTORS).astype(np.int64), SECTORS - 1)
+        reach = 1.0 if lights.reach is None else lights.reach[j, sector] / r
+        missed += np.bincount(k[~hits.hit & (dx * dx + dy * dy <= reach * reach)], minlength=len(which))
+        off = y.position - lights.position[j[rows]]
+        for column, term in enumerate((mine, *(mine * off.T))):
+            sums[:, column] += np.bincount(k[rows], term * patch, len(which))
+    return found, missed, sums
 
 
 def start(context, settings) -> PlacedFromPaths:
@@ -268,25 +288,29 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
         lights = PhotonLights(at, facing, radius, np.zeros((len(kept.keep), 3)),
                               reach=open_reach(at, facing, radius, context.tracer))
         marks["elimination"] = time.perf_counter()
-        lights.catchment = catchment(lights, context.scene, context.tracer, s.area_samples,
-                                     np.random.default_rng(view.integers(1 << 63)))
+        share = catchment(lights, context.scene, context.tracer, s.area_samples,
+                          np.random.default_rng(view.integers(1 << 63)))
+        lights.catchment, lights.centre = share.area, share.centre
         marks["catchment"] = time.perf_counter()
         if context.tracer.threads > 1:  # the splitting waits for the photons: trace on every thread
             lanes.release(context.tracer.threads - 1)
         bounces = max(context.max_bounces, 1)
         if state is None:  # intensities divided by the number of paths
             traced = s.photons if len(lights) else 0
-            by_bounce = split_photons(lights, batches if traced else (), bounces, context.tracer) / max(traced, 1)
+            split = split_photons(lights, batches if traced else (), bounces, context.tracer)
+            by_bounce, halves = (a / max(traced, 1) for a in split)
         else:  # the kept photons, intensities already divided by the number of paths
             photons = state.paths.lights()
-            by_bounce = split_photons(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
-                                               for first in range(0, len(photons), POINTS_PER_BATCH)), bounces,
-                                      context.tracer)
+            by_bounce, halves = split_photons(lights, (photons.take(slice(first, first + POINTS_PER_BATCH))
+                                                       for first in range(0, len(photons), POINTS_PER_BATCH)),
+                                              bounces, context.tracer)
     finally:
         lanes.release(context.tracer.threads)  # no job waits for a lane that is never freed
         tracing.shutdown(cancel_futures=True)
     lights.by_bounce = np.cumsum(by_bounce, axis=1)
     lights.intensity = lights.by_bounce[:, -1]
+    lights.slope = fit_slopes(lights.position, lights.normal, lights.radius, lights.reach, share.flat,
+                              lights.radiance @ LUMINANCE, halves)
     marks["photon_splitting"] = time.perf_counter()
     stages = list(marks)
     seconds = {b: marks[b] - marks[a] for a, b in zip(stages, stages[1:])}
@@ -327,14 +351,16 @@ def _ahead(jobs, executor, depth: int):
     return results()
 
 
-def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
-    """(N, bounces, 3) photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the
-    lights covering them (not those under a lid, ``photon_lights.LID``), kept apart by bounce, split over the
-    tracer's threads a batch at a time (or, with many lights, as many batches at a time as make
-    ``Splitting.points`` photons); a ``checkpoint`` of the tracer after each batch."""
+def split_photons(lights, batches, bounces: int, tracer) -> tuple[np.ndarray, np.ndarray]:
+    """Photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the lights covering
+    them (not those under a lid, ``photon_lights.LID``), split over the tracer's threads a batch at a time (or,
+    with many lights, as many batches at a time as make ``Splitting.points`` photons); a ``checkpoint`` of the
+    tracer after each batch. Returns (N, bounces, 3) the intensity kept apart by bounce, and (N, 2, 4) their
+    luminance and its first moment (sum of k_j I_p p) weighted by the lights' kernels, of the photons of even and
+    of odd light paths apart (``fit_slopes``)."""
     reach = LID * float(lights.radius.max()) if len(lights) else 0.0
     with ThreadPoolExecutor(tracer.threads) as pool:
-        splitting = Splitting(lights, bounces, 3, pool, tracer.threads)
+        splitting = Splitting(lights, bounces, 3, pool, tracer.threads, raw_groups=2, raw_channels=4)
         held = []
         for photons in chain(batches, [None]):
             if photons is not None:
@@ -342,10 +368,12 @@ def split_photons(lights, batches, bounces: int, tracer) -> np.ndarray:
             if held and (photons is None or sum(map(len, held)) >= splitting.points):
                 photons = VirtualLights.concat(held)
                 held = []
+                light = luminance(photons.intensity)[:, None]
                 splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
-                              lid_heights(tracer, photons.position, photons.normal, reach))
+                              lid_heights(tracer, photons.position, photons.normal, reach),
+                              np.concatenate([light, light * photons.position], axis=1), photons.path % 2)
             tracer.checkpoint()
-    return splitting.total()
+    return splitting.total(), splitting.raw_total()
 
 
 def gather_samples(settings, camera_samples: int) -> int:

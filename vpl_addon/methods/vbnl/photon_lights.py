@@ -8,6 +8,16 @@ shares, I_j; its *catchment* A_j, the integral of s_j over the surface, comes fr
 around the light (``methods.vbnl.catchment``). A diffuse light then emits ``L_j = I_j / A_j``, the
 share-weighted mean radiance around it, and the radiance leaving y is ``sum_j s_j(y) L_j``.
 
+Deviation, a local linear reconstruction (``fit_slopes``): each light also holds how its radiance changes across its
+disc, a slope gamma_j about the centre c_j of its share, and y's radiance is
+``sum_j s_j(y) L_j (1 + gamma_j . (y - c_j))``. A light whose disc is cut by a surface standing on it (a box on
+the floor) averages the floor on one side only, so a mean alone carries the light of the open floor into the
+corner: the first-order boundary bias of kernel estimates, which a local linear fit removes (Jones 1993, "Simple
+boundary correction for kernel density estimation"; Fan and Gijbels 1996, ch. 3). The correction integrates to
+zero over the light's share, so each light keeps its power (about the share's centre as the catchment measures it,
+whose error is independent of the slopes: the correction adds nothing on average). Measured in bench/README.md
+("thirty-third session").
+
 Deviation from eq. 3, measured in bench/README.md: the paper sums I_j / (pi r_j^2) over the covering lights with
 the indicator of the sphere; the number of covering lights at a point varies by about +-50 % around its mean of
 2 pi / sqrt(3) (alpha = 2), which is noise in every gather sample. Weighting by the shares instead gives a smooth
@@ -39,7 +49,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...core.compiled import inline, kernel
-from ...core.sampling import basis
+from ...core.sampling import basis, orthonormal_basis
 from .morton import morton_codes, radix_tree
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
@@ -60,6 +70,8 @@ SECTORS = 16  # a light's reach (``PhotonLights.reach``) is kept per sector of i
 LID = 0.25  # a point with something over it nearer than this many radii of a light is not the light's: light trapped
 # there (a glowing panel 1 mm or 1 cm under a ceiling: 63 % and 59 % of the photons' light in two imported Cornell
 # boxes, whose Diffuse Indirect came out 2.2 and 1.13 times Cycles') does not reach the room the light lights
+SLOPE_CAP = 0.7  # at most this relative change of a light's radiance over its radius: 1 + gamma . (y - c) stays
+# positive over the disc (|y - c| < 1.4 r where the share's centre is off the light's), so no clamp adds light
 HASH = (73856093, 19349663, 83492791)  # Teschner et al. 2003, spatial hashing of a cell's integer coordinates
 
 
@@ -126,6 +138,8 @@ class PhotonLights:
     radius: np.ndarray  # (N,) r_j = alpha r_max,j
     intensity: np.ndarray  # (N,3) radiant intensity along the normal, from photon splitting
     catchment: np.ndarray | None = None  # (N,) A_j, the surface area of the light's share; None: pi r_j^2
+    centre: np.ndarray | None = None  # (N,3) c_j, the centre of the light's share; None: its position
+    slope: np.ndarray | None = None  # (N,3) gamma_j, the relative change of its radiance (``fit_slopes``); None: 0
     by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
     # (N, SECTORS) how far the light reaches in each sector of its disc (``open_reach``); None: its whole disc
     reach: np.ndarray | None = None
@@ -176,6 +190,14 @@ class PhotonLights:
         return self._tree[1], self._tree[2]
 
     @property
+    def linear(self) -> tuple[np.ndarray, np.ndarray]:
+        """(slope, centre), each (N,3): the lights' local linear reconstruction as the gather's kernel reads it,
+        radiance at y = L_j max(1 + slope_j . (y - centre_j), 0) (flat where no slopes were fitted)."""
+        flat = self.slope is None
+        return (np.zeros((len(self), 3)) if flat else self.slope,
+                self.position if flat or self.centre is None else self.centre)
+
+    @property
     def _kernel_grid(self) -> tuple:
         """What the kernels read of the lights: the grid with the lights' discs."""
         g = self.grid
@@ -198,28 +220,105 @@ class PhotonLights:
         return np.bincount(rows, share * (covering == light[rows]), len(points))
 
 
+def fit_slopes(position, normal, radius, reach, flat, light, halves) -> np.ndarray:
+    """(N,3) gamma_j: each light's radiance as L_j (1 + gamma_j . (y - c_j)) over its share, L_j its mean there
+    (``light``, the luminance of I_j / A_j) and c_j the share's centre (``vbnl.Catchment.centre``).
+
+    The gradient is a weighted least-squares fit (a local linear estimate, Fan and Gijbels 1996, ch. 3) over the
+    light's disc with the kernel k_j = 1 - (d / r_j)^2 (not normalised over the lights), as far as the disc
+    reaches (``reach``): with S_j = integral k_j (y - b_j)(y - b_j)^T dA about the kernel's centre b_j, in closed
+    form over the disc cut to its reach (``_kernel_moments``), and M_j = sum over photons of k_j(p) I_p (p - b_j)
+    (their luminance), it solves S_j g = M_j in the light's tangent plane. Only lights whose surface is the whole
+    disc up to its reach (``flat``: every catchment point within its reach landed on it) get a slope; on a curved
+    part or over an edge the photons' support is not the disc's.
+
+    Fitted over the share alone, a region a light spacing across, with moments from the catchment's points, the
+    slopes of lights cut by a wall were mostly the catchment's error in the share's centre (|gamma| r 0.4-0.7 on
+    an evenly lit floor), and that error, correlated with the slopes, added 0.2-0.3 % to the Cornell boxes'
+    Diffuse Indirect: the closed form has neither.
+
+    ``halves`` (N, 2, 4): per light, the kernel-weighted luminance and its first moment (sum k_j I_p p) of the
+    photons of even and of odd light paths, two independent estimates. Their difference measures the gradient's
+    noise, and the gradient is shrunk by max(0, 1 - |g_odd - g_even|^2 / |g|^2) (an estimate of |g|^2 /
+    (|g|^2 + its noise)), then capped at ``SLOPE_CAP`` per radius."""
+    if len(radius) == 0:
+        return np.zeros((0, 3))
+    t, b = orthonormal_basis(normal)
+    weight, middle, (s_tt, s_tb, s_bb) = _kernel_moments(radius, reach)
+    det = s_tt * s_bb - s_tb * s_tb
+    posed = flat & (light > 0.0) & (weight > 0.0) & (det > 1e-6 * (weight * radius * radius) ** 2)
+    det = np.where(posed, det, 1.0)
+    centre = position + middle[:, :1] * t + middle[:, 1:] * b
+
+    def gradient(moment, total):  # S^-1 (sum k I (p - b)), in the plane's (t, b) coordinates
+        m = moment - total[:, None] * centre
+        m_t, m_b = (m * t).sum(axis=1), (m * b).sum(axis=1)
+        return (s_bb * m_t - s_tb * m_b) / det, (s_tt * m_b - s_tb * m_t) / det
+    g_t, g_b = gradient(halves[:, 0, 1:] + halves[:, 1, 1:], halves[:, 0, 0] + halves[:, 1, 0])
+    d_t, d_b = gradient(halves[:, 0, 1:] - halves[:, 1, 1:], halves[:, 0, 0] - halves[:, 1, 0])
+    signal = g_t * g_t + g_b * g_b
+    kept = np.maximum(0.0, 1.0 - (d_t * d_t + d_b * d_b) / np.maximum(signal, 1e-300))
+    slope = (kept / np.where(posed, light, 1.0))[:, None] * (g_t[:, None] * t + g_b[:, None] * b)
+    size = np.sqrt((slope * slope).sum(axis=1)) * radius
+    slope *= (np.minimum(size, SLOPE_CAP) / np.maximum(size, 1e-300))[:, None]
+    return np.where((posed & np.isfinite(slope).all(axis=1))[:, None], slope, 0.0)
+
+
+def _kernel_moments(radius, reach):
+    """The kernel k = 1 - (rho / r)^2 over each light's disc cut to its reach in every sector (``_sector``'s
+    angles, in ``orthonormal_basis``' plane coordinates): (integral k dA (N,), its centre (N,2), and the integrals
+    of k (y - centre) (y - centre)^T dA as (xx, xy, yy), each (N,)). Per sector of angles [a, a + w] reaching R,
+    integral k rho^n rho d rho = R^(n+2) / (n+2) - R^(n+4) / ((n+4) r^2) times the integral of the angles'
+    cos / sin powers."""
+    r = radius[:, None]
+    far = r if reach is None else np.minimum(reach, r)
+    w = 2.0 * np.pi / SECTORS
+    a = -np.pi + w * np.arange(SECTORS)[None, :]
+
+    def radial(n):
+        return far ** (n + 2) / (n + 2) - far ** (n + 4) / ((n + 4) * r * r)
+    weight = (w * radial(0)).sum(axis=1)
+    first = np.stack([(radial(1) * (np.sin(a + w) - np.sin(a))).sum(axis=1),
+                      (radial(1) * (np.cos(a) - np.cos(a + w))).sum(axis=1)], axis=1)
+    middle = np.where(weight[:, None] > 0.0, first / np.maximum(weight, 1e-300)[:, None], 0.0)
+    twice = (np.sin(2.0 * (a + w)) - np.sin(2.0 * a)) / 4.0
+    xx = (radial(2) * (w / 2.0 + twice)).sum(axis=1) - weight * middle[:, 0] ** 2
+    xy = (radial(2) * (np.sin(a + w) ** 2 - np.sin(a) ** 2) / 2.0).sum(axis=1) - weight * middle[:, 0] * middle[:, 1]
+    yy = (radial(2) * (w / 2.0 - twice)).sum(axis=1) - weight * middle[:, 1] ** 2
+    return weight, middle, (xx, xy, yy)
+
+
 class Splitting:
     """Photon splitting (sec. 3.3) of batch after batch of points among ``lights``: their values (P, C) shared
-    among the covering lights, kept apart by ``group``. With an executor ``pool``, each batch is cut in
+    among the covering lights, kept apart by ``group``; ``raw`` values (P, R), if the splitting keeps any
+    (``raw_groups``), weighted by each covering light's kernel 1 - (d / r_j)^2 instead of its share and kept
+    apart by ``raw_group`` (``fit_slopes``' moments). With an executor ``pool``, each batch is cut in
     ``workers`` parts summed on its threads, each into a sum of its own held for the whole splitting (no array of
     the lights' size per batch). With more than ``SORTED_FROM`` lights, a part is put in the order of the grid
     blocks its points fall in first (``_in_block_order``), so that points that test the same lights come one
     after another and find them in cache; ``points`` says how many points are worth adding at once."""
 
-    def __init__(self, lights: PhotonLights, groups: int, channels: int, pool=None, workers: int = 1):
+    def __init__(self, lights: PhotonLights, groups: int, channels: int, pool=None, workers: int = 1,
+                 raw_groups: int = 0, raw_channels: int = 0):
         self.lights, self.groups, self.pool = lights, groups, pool
         parts = max(1, workers) if pool is not None else 1
         self.sums = np.zeros((parts, len(lights) * groups, channels))
+        self.raw_groups = raw_groups
+        self.raw_sums = np.zeros((parts, len(lights) * raw_groups, raw_channels if raw_groups else 0))
         self.points = SORTED_POINTS if len(lights) > SORTED_FROM else 1
 
     def add(self, points: np.ndarray, normals: np.ndarray, values: np.ndarray, group: np.ndarray | None = None,
-            lids: np.ndarray | None = None):
+            lids: np.ndarray | None = None, raw: np.ndarray | None = None, raw_group: np.ndarray | None = None):
         """Shares the values of the points (P,3) with unit ``normals`` (and heights under a lid, ``lid_heights``)
-        among the lights covering them."""
+        among the lights covering them, and weighs their ``raw`` values by those lights' kernels."""
         if len(self.lights) == 0 or len(points) == 0:
             return
         points, normals, values, lids = _rows(points), _rows(normals), _rows(values), _lids(lids, len(points))
         group = np.zeros(len(points), np.int64) if group is None else np.ascontiguousarray(group, np.int64)
+        channels = values.shape[1]
+        if self.raw_groups:  # one array for the kernels: the raw values after the shared ones, both groups in one
+            values = np.ascontiguousarray(np.concatenate([values, raw], axis=1), np.float64)
+            group = group + self.groups * (0 if raw_group is None else np.asarray(raw_group, np.int64))
         grid = self.lights._kernel_grid
         bounds = np.linspace(0, len(points), len(self.sums) + 1).astype(np.int64)
 
@@ -230,7 +329,7 @@ class Splitting:
                 part = _in_block_order(*part, grid)
             else:
                 part = (*part, _slots(part[0], grid))
-            _split(*part, self.groups, grid, self.sums[w])
+            _split(*part, self.groups, channels, grid, self.sums[w], self.raw_sums[w])
 
         if len(self.sums) == 1:
             split(0)
@@ -240,6 +339,10 @@ class Splitting:
     def total(self) -> np.ndarray:
         """(N, groups, C) the values shared so far."""
         return self.sums.sum(axis=0).reshape(len(self.lights), self.groups, self.sums.shape[2])
+
+    def raw_total(self) -> np.ndarray:
+        """(N, raw_groups, R) the raw values weighted so far."""
+        return self.raw_sums.sum(axis=0).reshape(len(self.lights), self.raw_groups, self.raw_sums.shape[2])
 
 
 def lid_heights(tracer, points: np.ndarray, normals: np.ndarray, reach: float) -> np.ndarray:
@@ -385,16 +488,22 @@ def _grown(a, size):
 
 
 @kernel
-def _split(points, normals, lids, values, group, slot, groups, grid, out):
-    """Adds each point's ``values`` times its shares to ``out[light * groups + group]``: ``Splitting.add``, the
-    points' cells' ``slot`` given (``_slots``)."""
+def _split(points, normals, lids, values, group, slot, groups, channels, grid, out, raw_out):
+    """Adds each point's first ``channels`` values times its shares to ``out[light * groups + group % groups]``
+    and the rest times the lights' kernels to ``raw_out[light * raw groups + group // groups]``:
+    ``Splitting.add``, the points' cells' ``slot`` given (``_slots``)."""
     longest = grid[6]
     found, weight = np.empty(longest, np.int64), np.empty(longest)
+    raw_groups = raw_out.shape[0] // max(out.shape[0] // groups, 1)
     for i in range(len(points)):
         k = _covering(points[i], normals[i], lids[i], slot[i], grid, found, weight)
         total = weight[:k].sum()
         for q in range(k):
             share = weight[q] / total
-            row = found[q] * groups + group[i]
-            for c in range(values.shape[1]):
+            row = found[q] * groups + group[i] % groups
+            for c in range(channels):
                 out[row, c] += share * values[i, c]
+            if raw_groups:
+                row = found[q] * raw_groups + group[i] // groups
+                for c in range(channels, values.shape[1]):
+                    raw_out[row, c - channels] += weight[q] * values[i, c]

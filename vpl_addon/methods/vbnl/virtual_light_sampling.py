@@ -141,7 +141,7 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
     mean_share = _add_samples(out, owner, source, weight, hit_light, p_light, pdf, toward, w, y.position,
                               y.shading_normal, point.position, pair, light, share, lights.position,
                               lights.normal, lights.radius, choice, radiance, density, float(settings.n_min),
-                              max(settings.n_max - settings.n_min, 1e-9), extend)
+                              max(settings.n_max - settings.n_min, 1e-9), extend, *lights.linear)
     if not extend:
         return []
     bsdf_hit = np.nonzero(hit_light < 0)[0]
@@ -301,7 +301,7 @@ def _blend_weight(footprint, density, n_min, span, extend):
 
 @kernel
 def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, normal, position, pair, light, share,
-                 centre, facing, radius, choice, radiance, density, n_min, span, extend):
+                 centre, facing, radius, choice, radiance, density, n_min, span, extend, slope, middle):
     """out[owner] += each hit's estimate; returns (H,) the mean w_v of the lights covering each BSDF sample's hit,
     by their shares (0 where none covers it or for a light sample), whatever light they hold: the lights' part is
     sum_i w_v,i s_i L_i and the extension's (1 - sum_i w_v,i s_i) L, which add up to L where the L_i are right on
@@ -315,7 +315,8 @@ def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, 
     sample (drawn -1, ``w`` its direction, ``weight`` the throughput times f cos / pdf) adds
     weight sum_i s_i(y) L_i w_v,i power_heuristic(pdf, p_i), p_i the pdf of light sampling toward light i from x.
     The footprint a = |x - y|^2 / (pdf |cos theta_y|) (eq. 7) sets w_v (eq. 9). ``pair``, ``light``, ``share``:
-    the lights covering each hit, s_i(y) (none at a hit without a diffuse colour)."""
+    the lights covering each hit, s_i(y) (none at a hit without a diffuse colour). A light's radiance at y is
+    L_i (1 + slope_i . (y - middle_i)) (``PhotonLights.linear``)."""
     hits = len(drawn)
     footprint = np.empty(hits)
     for h in range(hits):
@@ -327,16 +328,18 @@ def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, 
     mine, covered, shared, estimate = np.zeros(hits), np.zeros(hits), np.zeros(hits), np.zeros((hits, 3))
     for q in range(len(pair)):
         h, i = pair[q], light[q]
+        lit = share[q] * max(1.0 + slope[i, 0] * (y[h, 0] - middle[i, 0]) + slope[i, 1] * (y[h, 1] - middle[i, 1])
+                             + slope[i, 2] * (y[h, 2] - middle[i, 2]), 0.0)  # s_i(y) times L_i(y) / L_i
         if drawn[h] >= 0:
             if i == drawn[h]:
-                mine[h] += share[q]
+                mine[h] += lit
             continue
         s = source[h]
         p_i = choice[i] * _disc_density(position[s, 0], position[s, 1], position[s, 2], w[s, 0], w[s, 1], w[s, 2],
                                         centre[i], facing[i], radius[i])
         w_v = _blend_weight(footprint[h], density[i], n_min, span, extend)
         mis = _power_heuristic(pdf[h], p_i) * w_v
-        r0, r1, r2 = radiance[i, 0] * share[q], radiance[i, 1] * share[q], radiance[i, 2] * share[q]
+        r0, r1, r2 = radiance[i, 0] * lit, radiance[i, 1] * lit, radiance[i, 2] * lit
         estimate[h, 0] += r0 * mis
         estimate[h, 1] += r1 * mis
         estimate[h, 2] += r2 * mis
