@@ -40,7 +40,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ...core.color import LUMINANCE, largest, luminance
+from ...core.color import largest, luminance
 from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonormal_basis, stratified_2d
 from ...gather.virtual_lights import VirtualLights
 from ...materials.microfacet import GlossyLobe
@@ -310,7 +310,7 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     lights.by_bounce = np.cumsum(by_bounce, axis=1)
     lights.intensity = lights.by_bounce[:, -1]
     lights.slope = fit_slopes(lights.position, lights.normal, lights.radius, lights.reach, share.flat,
-                              lights.radiance @ LUMINANCE, halves)
+                              luminance(lights.radiance), halves)
     marks["photon_splitting"] = time.perf_counter()
     stages = list(marks)
     seconds = {b: marks[b] - marks[a] for a, b in zip(stages, stages[1:])}
