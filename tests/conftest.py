@@ -187,11 +187,39 @@ def plane_scene(lights=(), world=(0.0, 0.0, 0.0), size=10.0, height=5.0, res=32,
     return Scene.build(tri, materials or Materials.make([]), list(lights), cam, world=world)
 
 
-def pytest_terminal_summary(terminalreporter):
-    """What the stress suite (tests/stress) covered, at the end of a run that included it."""
+def _stress_results() -> dict | None:
+    """The stress suite's tally in this process (tests/stress/stress_scenes.py) with its methods, or None if it did
+    not run here."""
     module = sys.modules.get("stress_scenes")
-    if module is not None and module.RESULTS["renders"]:
-        r = module.RESULTS
-        terminalreporter.write_line(f"stress suite: {len(r['scenes'])} hostile scenes, {r['renders']} renders over "
-                                    f"methods {', '.join(module.METHODS)}: {r['bad_values']} non-finite or "
-                                    f"negative values")
+    if module is None or not module.RESULTS["renders"]:
+        return None
+    return {**module.RESULTS, "scenes": sorted(module.RESULTS["scenes"]), "methods": list(module.METHODS)}
+
+
+_WORKERS_STRESS: list[dict] = []  # the tallies of pytest-xdist's workers, gathered by the controller
+
+
+def pytest_sessionfinish(session):
+    """On a pytest-xdist worker, hand the stress tally to the controller (``workeroutput`` goes back with the
+    worker's end)."""
+    results = _stress_results()
+    if hasattr(session.config, "workeroutput") and results is not None:
+        session.config.workeroutput["stress"] = results
+
+
+@pytest.hookimpl(optionalhook=True)
+def pytest_testnodedown(node, error):
+    """On the controller, keep what a worker tallied of the stress suite."""
+    stress = getattr(node, "workeroutput", {}).get("stress")
+    if stress is not None:
+        _WORKERS_STRESS.append(stress)
+
+
+def pytest_terminal_summary(terminalreporter):
+    """What the stress suite (tests/stress) covered, at the end of a run that included it, over all workers."""
+    tallies = _WORKERS_STRESS + [r for r in [_stress_results()] if r is not None]
+    if tallies:
+        scenes = set().union(*(t["scenes"] for t in tallies))
+        renders, bad = sum(t["renders"] for t in tallies), sum(t["bad_values"] for t in tallies)
+        terminalreporter.write_line(f"stress suite: {len(scenes)} hostile scenes, {renders} renders over "
+                                    f"methods {', '.join(tallies[0]['methods'])}: {bad} non-finite or negative values")
