@@ -93,8 +93,9 @@ def baked_world(world, frame: int, progress: Callable[[str], bool] | None = None
             last = (stderr.strip().splitlines() or ["no message"])[-1]
             raise BakeError(f"Cycles failed ({last})")
         image = np.load(out + ".npy")
-    np.save(path + ".partial.npy", image)
-    os.replace(path + ".partial.npy", path)  # never a half-written cache file under the final name
+    with tempfile.NamedTemporaryFile(dir=cache_dir(), prefix=".partial-", suffix=".npy", delete=False) as f:
+        np.save(f, image)
+    os.replace(f.name, path)  # never a half-written cache file under the final name, nor two processes' in one file
     return image
 
 
