@@ -212,15 +212,20 @@ def test_what_a_change_keeps(cornell, viewport):
 
 
 def test_a_change_mid_refinement_stops_the_running_work(cornell, viewport, monkeypatch):
-    """A slow stage (every ray batch takes 30 ms more) is running the refinement when the view moves: the job ends
-    within 100 ms of the change (at its next ray batch or block) and shows nothing more; the new job's first image
-    follows. Without the stop the old job would trace for seconds more."""
+    """A slow stage (every ray batch takes 30 ms more) is running the refinement when the view moves: the old job
+    ends at its threads' next ray batch or block (counted: each of its threads starts at most one batch after the
+    change; its latency, 12 to 28 ms on an idle machine, is printed) and shows nothing more; the new job's first
+    image follows. Without the stop the old job would trace for seconds more."""
+    import threading
     tracer = _module("vpl_addon.core.tracer").Tracer
     run = tracer._run
+    batches = []  # (thread, whether the view had moved) of every ray batch
 
     def slow(self, *args, **kwargs):
+        batches.append((threading.current_thread(), changed is not None))
         time.sleep(0.03)
         return run(self, *args, **kwargs)
+    changed = None
     _, depsgraph, camera = cornell("ir", samples=4)
     view = viewport()
     view.update(depsgraph, camera)
@@ -234,7 +239,9 @@ def test_a_change_mid_refinement_stops_the_running_work(cornell, viewport, monke
     old.join(5.0)
     latency = time.perf_counter() - changed
     print(f"the old job ended {latency * 1000:.0f} ms after the change")
-    assert not old.is_alive() and latency < 0.1
+    old_threads = {thread for thread, after in batches if not after}
+    late = [thread for thread, after in batches if after and thread in old_threads]
+    assert not old.is_alive() and len(late) <= len(old_threads), (len(late), len(old_threads))
     nxt = _next_frame(view, first)
     assert nxt.step == "preview"  # the old job's pass never showed
 
