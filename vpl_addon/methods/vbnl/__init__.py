@@ -49,7 +49,8 @@ from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
 from . import virtual_light_sampling
-from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, fit_slopes, lid_heights
+from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, fit_slopes, lid_heights, sector_angle, \
+    sector_of
 from .sample_elimination import MODES, eliminate
 
 PATHS_PER_BATCH = 1 << 16
@@ -207,7 +208,7 @@ def open_reach(position, normal, radius, tracer) -> np.ndarray:
     count = len(radius)
     if count == 0:
         return np.zeros((0, SECTORS))
-    angle = (np.arange(2 * SECTORS) + 0.5) / (2 * SECTORS) * 2.0 * np.pi - np.pi  # two per sector
+    angle = sector_angle((np.arange(2 * SECTORS) + 0.5) / 2.0)  # two per sector
     t, b = orthonormal_basis(normal)
     d = np.cos(angle)[None, :, None] * t[:, None, :] + np.sin(angle)[None, :, None] * b[:, None, :]
     origin = tracer.offset_origin(position + (LIFT * radius)[:, None] * normal, normal)
@@ -243,7 +244,7 @@ def _dropped_shares(lights, which, scene, tracer, per_light, rng):
         patch = np.pi * r[rows] ** 2 / per_light / np.maximum(slope, 1e-3)  # the surface a point stands for
         found += np.bincount(k[rows], mine > 0.0, len(which))
         # the points within the disc's reach that found no surface (an edge, a curve): the disc is not flat
-        sector = np.minimum(((np.arctan2(dy, dx) / (2.0 * np.pi) + 0.5) * SECTORS).astype(np.int64), SECTORS - 1)
+        sector = sector_of(dx, dy).astype(np.int64)
         reach = 1.0 if lights.reach is None else lights.reach[j, sector] / r
         missed += np.bincount(k[~hits.hit & (dx * dx + dy * dy <= reach * reach)], minlength=len(which))
         off = y.position - lights.position[j[rows]]

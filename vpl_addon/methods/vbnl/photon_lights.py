@@ -264,16 +264,31 @@ def fit_slopes(position, normal, radius, reach, flat, light, halves) -> np.ndarr
     return np.where((posed & np.isfinite(slope).all(axis=1))[:, None], slope, 0.0)
 
 
+def sector_angle(position):
+    """The angle, in ``orthonormal_basis``' plane coordinates, at ``position`` (in sectors, from 0 to ``SECTORS``)
+    around a light's disc: sector k spans positions [k, k + 1)."""
+    return position / SECTORS * 2.0 * np.pi - np.pi
+
+
+def sector_of(x, y):
+    """The sector (of ``SECTORS``, as a whole float) of the disc that holds the in-plane offset (x, y) from its
+    centre: ``sector_angle``'s inverse, rounded down; numbers or arrays, in numpy and in kernels (``_sector``)."""
+    return np.minimum(np.floor((np.arctan2(y, x) / (2.0 * np.pi) + 0.5) * SECTORS), SECTORS - 1)
+
+
+_sector = inline(sector_of)
+
+
 def _kernel_moments(radius, reach):
-    """The kernel k = 1 - (rho / r)^2 over each light's disc cut to its reach in every sector (``_sector``'s
-    angles, in ``orthonormal_basis``' plane coordinates): (integral k dA (N,), its centre (N,2), and the integrals
+    """The kernel k = 1 - (rho / r)^2 over each light's disc cut to its reach in every sector
+    (``sector_angle``): (integral k dA (N,), its centre (N,2), and the integrals
     of k (y - centre) (y - centre)^T dA as (xx, xy, yy), each (N,)). Per sector of angles [a, a + w] reaching R,
     integral k rho^n rho d rho = R^(n+2) / (n+2) - R^(n+4) / ((n+4) r^2) times the integral of the angles'
     cos / sin powers."""
     r = radius[:, None]
     far = r if reach is None else np.minimum(reach, r)
     w = 2.0 * np.pi / SECTORS
-    a = -np.pi + w * np.arange(SECTORS)[None, :]
+    a = sector_angle(np.arange(SECTORS))[None, :]
 
     def radial(n):
         return far ** (n + 2) / (n + 2) - far ** (n + 4) / ((n + 4) * r * r)
@@ -421,18 +436,12 @@ def _in_block_order(points, normals, lids, values, group, grid):
 
 
 @inline
-def _sector(x, y):
-    """The sector (of ``SECTORS``) of the disc that holds the in-plane offset (x, y) from its centre."""
-    return min(int((np.arctan2(y, x) / (2.0 * np.pi) + 0.5) * SECTORS), SECTORS - 1)
-
-
-@inline
 def _within_reach(dx, dy, dz, disc, reach):
     """Whether the offset (dx, dy, dz) from a light's centre (its ``disc`` row) lies within its ``reach`` (SECTORS,)
     in the sector it falls in."""
     t0, t1, t2, b0, b1, b2 = basis(disc[3], disc[4], disc[5])
     x, y = dx * t0 + dy * t1 + dz * t2, dx * b0 + dy * b1 + dz * b2
-    far = reach[_sector(x, y)]
+    far = reach[int(_sector(x, y))]
     return x * x + y * y <= far * far
 
 
