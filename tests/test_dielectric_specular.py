@@ -263,7 +263,7 @@ def test_glossy_color_read_in_place_is_the_lobes():
 
 def test_textured_roughness_costs_one_table_per_ior():
     """Tens of thousands of distinct roughnesses under two IORs: two dielectric tables (made once, cached per eta to
-    1e-4), a lookup that takes milliseconds, and A continuous in roughness."""
+    1e-4, counted), a lookup that takes milliseconds (printed), and A continuous in roughness."""
     M.layer_albedo(np.array([0.5]), np.full((1, 3), 0.04), np.array([1.5]), np.array([0.5]))  # the shared samples
     rng = np.random.default_rng(8)
     k = 40_000
@@ -276,8 +276,8 @@ def test_textured_roughness_costs_one_table_per_ior():
     a = M.layer_albedo(roughness, f0t, eta, mu)
     took = time.perf_counter() - start
     after = M._dielectric_tables.cache_info()
+    print(f"{k} lookups in {took * 1000:.0f} ms")  # timed, not asserted (DESIGN.md): the tables are counted
     assert (after.hits + after.misses) - (before.hits + before.misses) == 2
-    assert took < 0.5
     assert np.isfinite(a).all() and (a > 0).all() and (a < 1).all()
     r = np.linspace(0.0, 1.0, 2001)
     line = M.layer_albedo(r, np.full((len(r), 3), 0.04), np.full(len(r), 1.5), np.full(len(r), 0.6))[:, 0]
