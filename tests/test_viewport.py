@@ -6,6 +6,7 @@ Times are printed (``-s``), not asserted, but where they matter the work is coun
 import importlib
 import subprocess
 import sys
+import threading
 import time
 from dataclasses import replace
 
@@ -216,7 +217,6 @@ def test_a_change_mid_refinement_stops_the_running_work(cornell, viewport, monke
     ends at its threads' next ray batch or block (counted: each of its threads starts at most one batch after the
     change; its latency, 12 to 28 ms on an idle machine, is printed) and shows nothing more; the new job's first
     image follows. Without the stop the old job would trace for seconds more."""
-    import threading
     tracer = _module("vpl_addon.core.tracer").Tracer
     run = tracer._run
     batches = []  # (thread, whether the view had moved) of every ray batch
