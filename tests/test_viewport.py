@@ -214,9 +214,9 @@ def test_what_a_change_keeps(cornell, viewport):
 
 def test_a_change_mid_refinement_stops_the_running_work(cornell, viewport, monkeypatch):
     """A slow stage (every ray batch takes 30 ms more) is running the refinement when the view moves: the old job
-    ends at its threads' next ray batch or block (counted: each of its threads starts at most one batch after the
-    change; its latency, 12 to 28 ms on an idle machine, is printed) and shows nothing more; the new job's first
-    image follows. Without the stop the old job would trace for seconds more."""
+    ends at its threads' next ray batch or block (counted: it begins no more batches after the change than it has
+    threads; its latency, tens of milliseconds on an idle machine, is printed) and shows nothing more; the new
+    job's first image follows. Without the stop the old job would trace for seconds more."""
     tracer = _module("vpl_addon.core.tracer").Tracer
     run = tracer._run
     batches = []  # (thread, whether the view had moved) of every ray batch

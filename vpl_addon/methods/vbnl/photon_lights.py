@@ -280,11 +280,10 @@ _sector = inline(sector_of)
 
 
 def _kernel_moments(radius, reach):
-    """The kernel k = 1 - (rho / r)^2 over each light's disc cut to its reach in every sector
-    (``sector_angle``): (integral k dA (N,), its centre (N,2), and the integrals
-    of k (y - centre) (y - centre)^T dA as (xx, xy, yy), each (N,)). Per sector of angles [a, a + w] reaching R,
-    integral k rho^n rho d rho = R^(n+2) / (n+2) - R^(n+4) / ((n+4) r^2) times the integral of the angles'
-    cos / sin powers."""
+    """The kernel k = 1 - (rho / r)^2 over each light's disc cut to its reach in every sector (``sector_angle``):
+    (integral k dA (N,), its centre (N,2), and the integrals of k (y - centre) (y - centre)^T dA as (xx, xy, yy),
+    each (N,)). Per sector of angles [a, a + w] reaching R, integral k rho^n rho d rho = R^(n+2) / (n+2) -
+    R^(n+4) / ((n+4) r^2) times the integral of the angles' cos / sin powers."""
     r = radius[:, None]
     far = r if reach is None else np.minimum(reach, r)
     w = 2.0 * np.pi / SECTORS
