@@ -227,6 +227,8 @@ def _prepare_scene(args):
     settings.denoise = bool(getattr(args, "denoise", False))
     if args.no_path_extension:
         settings.path_extension = False
+    if getattr(args, "denoise_whole", False):
+        settings.denoising_indirect_apart = False
     if getattr(args, "no_path_reuse", False):
         settings.path_reuse = False
     if getattr(args, "path_threshold", None) is not None:
@@ -399,6 +401,9 @@ def _render_flags(r) -> None:
                         "default: the scene's setting)")
     r.add_argument("--denoising-quality", type=str.upper, choices=QUALITIES,
                    help="with --denoise, OIDN's network as Cycles' Denoise > Quality (default: the scene's setting)")
+    r.add_argument("--denoise-whole", action="store_true",
+                   help="with --denoise, the whole image in one pass, as Cycles and a compositor Denoise node do it, "
+                        "instead of the indirect light apart from the rest (the scene's Indirect Light Apart off)")
     r.add_argument("--photons", type=int, help="vbnl: light paths traced for photon splitting (0: automatic, a "
                    "quarter of the camera samples, 2^18 to 2^20)")
     r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel (0: one per camera sample)")

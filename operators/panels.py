@@ -66,6 +66,7 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         sub.active = settings.denoise
         sub.prop(settings, "denoising_prefilter")
         sub.prop(settings, "denoising_quality")
+        sub.prop(settings, "denoising_indirect_apart")
 
 
 class RENDER_PT_vpl_gi_viewport(_VPLGIPanel, bpy.types.Panel):

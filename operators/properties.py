@@ -113,6 +113,12 @@ class VPLGISettings(bpy.types.PropertyGroup):
         **_cycles_setting("denoising_quality", QUALITY_ITEMS),
         description="OpenImageDenoise's network: quality against time (as Cycles' Denoise > Quality; until set "
                     "here, the scene's Cycles value)")
+    denoising_indirect_apart: bpy.props.BoolProperty(
+        name="Indirect Light Apart", default=_RENDER.denoise_indirect_apart,
+        description="Denoise the indirect light apart from the rest of the image, and add the two: closer to the "
+                    "converged image than one pass over the whole (up to 12 % lower error on the example scenes, "
+                    "none where all the light is indirect), for one denoiser run more. Off: the whole image in one "
+                    "pass, as Cycles and a compositor Denoise node on Noisy Image do it")
     photons: bpy.props.IntProperty(
         name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
         description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother; 0 = "
@@ -218,6 +224,7 @@ class VPLGISettings(bpy.types.PropertyGroup):
         return RenderSettings(samples=self.samples, light_samples=self.light_samples, seed=self.seed, passes=passes,
                               mist=mist, denoise=self.denoise, denoise_prefilter=self.denoising_prefilter,
                               denoise_quality=self.denoising_quality,
+                              denoise_indirect_apart=self.denoising_indirect_apart,
                               ao_distance=10.0 if world is None else world.light_settings.distance,
                               film_transparent=self.id_data.render.film_transparent,
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t

@@ -41,6 +41,21 @@ def test_vbnl_settings_reach_the_engine_from_the_command_line(tmp_path):
     assert "vbnl 300 VPLs, 5000 light paths" in stdout
 
 
+def test_denoise_whole_reaches_the_engine(tmp_path):
+    """``--denoise-whole`` turns the scene's Indirect Light Apart off: the same render (its light passes the same to
+    the bit), denoised another way."""
+    from vpl_addon.core.exr import read_passes
+    images = []
+    for flags in ((), ("--denoise-whole",)):
+        out = tmp_path / f"denoised{len(flags)}.exr"
+        code, _, stderr = run_cli("render", EXAMPLES / "cornell_area.blend", "-o", out, "--percentage", "12",
+                                  "--samples", "2", "--light-samples", "1", "--denoise", *flags)
+        assert code == 0, stderr
+        images.append(read_passes(str(out))[0])
+    np.testing.assert_array_equal(images[0]["Diffuse Direct"], images[1]["Diffuse Direct"])
+    assert np.abs(images[0]["Combined"] - images[1]["Combined"]).max() > 1e-4
+
+
 def test_gather_samples_follow_the_samples_until_set(ext):
     """The render panel's Gather Samples is 0 until set: vbnl then gathers one pair per camera sample, so a user
     who raises Samples (as in Cycles) raises the indirect light's samples too; a number set by hand holds."""

@@ -49,6 +49,37 @@ def test_accurate_takes_guides_of_many_samples_as_clean(samples, runs_as):
     assert np.abs(ways["ACCURATE"] - ways["NONE"]).max() > 0.0
 
 
+def _corner():
+    """A floor and a wall standing on it, lit by a point light beside the wall: light the wall throws onto the
+    floor, 40 x 40 pixels seen from above."""
+    from vpl_addon.core.scene import Materials, Scene
+    floor = plane_scene(res=40)
+    wall = np.array([[[0.5, -10, 0], [0.5, 10, 0], [0.5, 10, 3]], [[0.5, -10, 0], [0.5, 10, 3], [0.5, -10, 3]]])
+    return Scene.build(np.concatenate([floor.triangles, wall]), Materials.make([]),
+                       [PointLight("lamp", [0.2, 0.0, 0.6], [60.0] * 3, radius=0.05)], floor.camera)
+
+
+@pytest.mark.parametrize("apart", [True, False])
+def test_the_indirect_light_is_denoised_apart_from_the_rest(apart):
+    """With Indirect Light Apart (the default) the render's Combined is, to the bit, OIDN on its Noisy Image less
+    the indirect light (Diffuse Color x Diffuse Indirect) plus OIDN on the indirect light, with the same guides; off,
+    OIDN on Noisy Image whole; the two differ (so the check can fail). OIDN's progress then spans four runs (the
+    guides, the two parts) and still rises to the end."""
+    passes = (P.COMBINED, P.NOISY_IMAGE, P.DENOISING_ALBEDO, P.DENOISING_NORMAL, P.DIFFUSE_COLOR, P.DIFFUSE_INDIRECT)
+    settings = replace(SETTINGS, method="vbnl", samples=4, passes=passes, denoise_indirect_apart=apart)
+    assert RenderSettings().denoise_indirect_apart
+    heard = []
+    result = render(_corner(), settings, lambda fraction, text: heard.append((text, fraction)))
+    noisy, albedo, normal = (result.passes[name][..., :3] for name in passes[1:4])
+    indirect = result.passes[P.DIFFUSE_COLOR][..., :3] * result.passes[P.DIFFUSE_INDIRECT][..., :3]
+    assert indirect.mean() > 0.05 * noisy.mean()  # the floor has indirect light
+    ways = {True: denoise(noisy, albedo, normal, apart=indirect), False: denoise(noisy, albedo, normal)}
+    np.testing.assert_array_equal(result.passes[P.COMBINED][..., :3], ways[apart])
+    assert np.abs(ways[True] - ways[False]).max() > 1e-3 * noisy.mean()
+    steps = [fraction for text, fraction in heard if text == "denoising"]
+    assert steps == sorted(steps) and 0.9 < steps[-1] <= 1.0
+
+
 @pytest.mark.parametrize("stop_at", [0.0, 0.2, 0.8])
 def test_esc_while_denoising_cancels(stop_at):
     """ESC before the denoiser, in the guides' prefiltering or in the colour's run stops the render (Cancelled),
