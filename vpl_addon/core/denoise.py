@@ -29,8 +29,8 @@ with the same guides, and added. The gather's noise is not the direct light's, a
 leaves more of both: Combined's rMAE is 3.5-7 % lower on the four Cornell boxes at 16 and 64 samples, 10-12.5 % on the
 PBR box and cornell_measured, 3.5-5 % in the living room, 0-2 % on the Veach scenes and the corridor (2 seeds;
 bench/README.md, "Thirty-fifth session"), for one OIDN run more (0.27 s at 256 x 256). A compositor Denoise node on
-Noisy Image, Cycles' own set-up, denoises Combined whole: it gives our picture with this off, and one 0.2-3 % rMAE
-from it with it on.
+Noisy Image, Cycles' own set-up, denoises Combined whole: it gives our picture with this off, and one 0.2-3.9 %
+rMAE from it with it on (the most at few samples and small images).
 
 Progress and cancelling (ESC) reach into OIDN's filters through its progress monitor, which ``pyoidn`` declares the
 type of but does not wrap: the setter is declared on pyoidn's cffi interface (``_progress_setter``).
@@ -92,8 +92,8 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: 
     rows top first, as the passes are; on ``threads`` CPU threads (None: OIDN's choice, every core), with Cycles'
     ``prefilter`` and ``quality`` (``PREFILTERS``, ``QUALITIES``). ``apart`` (H,W,3), a part of ``color`` (the
     render's indirect light): it and the rest of ``color`` are denoised each on its own, with the same guides, and
-    added. ``progress(fraction)`` is called as OIDN works (over its filter runs: with ``ACCURATE`` the
-    two guides, then the colour, or its two parts); False stops it (``DenoiseCancelled``)."""
+    added. ``progress(fraction)`` is called as OIDN works (over its filter runs: with ``ACCURATE`` the two guides,
+    then the colour, or its two parts); False stops it (``DenoiseCancelled``)."""
     check(prefilter, quality)
     oidn = _oidn()
     device = oidn.Device(oidn.OIDN_DEVICE_TYPE_CPU)
