@@ -1,8 +1,11 @@
 """Denoise Combined alone, or the light passes apart and add them up? (issue 23: "denoise the direct-light passes and
 the indirect passes where that measures better than denoising Combined alone; the passes keep summing to Combined")
 
-One undenoised render per scene, setting and seed, then OIDN (``core.denoise``, the same guides) on:
-* Combined alone (what the engine does);
+One undenoised render per scene, setting and seed (the gather's filter off, as in a denoised render), then OIDN
+(``core.denoise``, the same guides) on:
+* Combined alone (what the engine does with Indirect Light Apart off);
+* indirect apart: the indirect light (colour x Diffuse / Glossy Indirect) and the rest of Combined each denoised,
+  added (the engine's default, ``denoise(..., apart=)``);
 * direct: Diffuse Color x Diffuse Direct + Glossy Color x Glossy Direct denoised, the rest added as rendered;
 * direct + indirect: the same and the indirect light (colour x Diffuse / Glossy Indirect) denoised apart;
 * light passes: Diffuse / Glossy Direct denoised themselves (a white albedo guide), then times their colours;
@@ -22,7 +25,8 @@ import numpy as np
 from vbnl_stages import ROOT, load_scene
 
 SETTINGS = ((4, 4, 16), (16, 1, 16), (4, 4, 64))  # camera samples, light samples, vbnl's sample pairs
-VARIANTS = ("noisy", "Combined alone", "direct", "direct + indirect", "light passes", "light passes + indirect")
+VARIANTS = ("noisy", "Combined alone", "indirect apart", "direct", "direct + indirect", "light passes",
+            "light passes + indirect")
 
 
 def variants(passes, denoise, P) -> list[np.ndarray]:
@@ -38,7 +42,8 @@ def variants(passes, denoise, P) -> list[np.ndarray]:
     rest = combined - direct - indirect
     white = np.ones_like(albedo)
     lights = colour[0] * clean(passes[P.DIFFUSE_DIRECT], white) + colour[1] * clean(passes[P.GLOSSY_DIRECT], white)
-    return [combined, clean(combined), clean(direct) + indirect + rest, clean(direct) + clean(indirect) + rest,
+    return [combined, clean(combined), denoise(combined, albedo, normal, apart=np.asarray(indirect, np.float32)),
+            clean(direct) + indirect + rest, clean(direct) + clean(indirect) + rest,
             lights + indirect + rest, lights + clean(indirect) + rest]
 
 
@@ -68,8 +73,10 @@ def main(argv=None) -> int:
             vbnl = dataclasses.replace(vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=pairs))
             rmae = []
             for seed in range(args.seeds):
+                # undenoised, but as a denoised render runs: the gather's filter off (``render``'s ``filtering``)
                 settings = dataclasses.replace(base, samples=samples, light_samples=light_samples, seed=seed,
-                                               denoise=False, placement=dataclasses.replace(base.placement, vbnl=vbnl))
+                                               denoise=False, placement=dataclasses.replace(base.placement, vbnl=vbnl),
+                                               gather=dataclasses.replace(base.gather, filter=False))
                 passes = render(scene, settings).passes
                 rmae.append([errors(image, reference, mask)["rmae"] for image in variants(passes, denoise, P)])
             mean = np.mean(rmae, axis=0)
