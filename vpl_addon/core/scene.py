@@ -11,6 +11,7 @@ non-finite or negative become 0, and a missing one black (as Cycles reads it).
 from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from typing import TYPE_CHECKING
 
 import numpy as np
@@ -334,9 +335,11 @@ class Scene:
     def surface_area(self) -> float:
         return float(self.triangle_areas.sum())
 
-    @property
+    @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        """Axis-aligned box of the geometry (a unit box at the origin for an empty scene)."""
+        """Axis-aligned box of the geometry (a unit box at the origin for an empty scene). Kept once made: every
+        block's gather asks for it, and the living room's 141,365 triangles took 42 ms a time (a scene's triangles
+        are never changed in place; a changed scene is a new ``Scene``, ``dataclasses.replace``)."""
         if len(self.triangles) == 0:
             return -np.ones(3), np.ones(3)
         pts = self.triangles.reshape(-1, 3).astype(np.float64)
