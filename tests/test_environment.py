@@ -71,6 +71,38 @@ def test_direct_light_under_the_map_is_the_map_integrated(rotated):
     assert got == pytest.approx(expected, rel=0.02)
 
 
+def test_the_map_is_read_only_for_the_samples_its_light_reaches(monkeypatch):
+    """Under a wide roof (behind the camera) the map's light samples are nearly all blocked: their directions are
+    drawn, but the map is looked up (L / pdf) only for those whose shadow ray got out, and the floor gets the light
+    of those alone, finite and positive."""
+    roof = np.array([[[-500, -500, 6], [500, 500, 6], [500, -500, 6]], [[-500, -500, 6], [-500, 500, 6],
+                                                                        [500, 500, 6]]], float)
+    floor = plane_scene(res=16)
+    scene = dataclasses.replace(floor, triangles=np.concatenate([floor.triangles, roof]).astype(np.float32),
+                                normals=np.concatenate([floor.normals, np.tile([0, 0, -1.0], (2, 3, 1))]
+                                                       ).astype(np.float32),
+                                uvs=np.zeros((4, 3, 2), np.float32), material=np.concatenate([floor.material] * 2),
+                                object_id=np.concatenate([floor.object_id] * 2),
+                                environment=Environment.checked(sky(sun=(0.3, 0.97))))
+    counted = {"drawn": 0, "looked up": 0}
+    draw, look = EnvironmentLight.sample, EnvironmentLight._look
+
+    def drawn(self, u1, u2):
+        counted["drawn"] += len(u1)
+        return draw(self, u1, u2)
+
+    def looked(self, w):
+        counted["looked up"] += len(w)
+        return look(self, w)
+    monkeypatch.setattr(EnvironmentLight, "sample", drawn)
+    monkeypatch.setattr(EnvironmentLight, "_look", looked)
+    out = render(scene, RenderSettings(samples=4, light_samples=4, method="none"))
+    direct = out.passes["Diffuse Direct"][..., :3]
+    assert counted["drawn"] >= 16 * 16 * 4 * 4
+    assert 0 < counted["looked up"] < 0.05 * counted["drawn"]
+    assert np.isfinite(direct).all() and direct.min() >= 0.0 and direct.max() > 0.0
+
+
 def test_light_paths_carry_the_power_through_the_scene_disc():
     light = EnvironmentLight(sky())
     rng = np.random.default_rng(2)

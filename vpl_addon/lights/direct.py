@@ -81,7 +81,7 @@ def direct_light(surface, lights, tracer, samples: int, rng: np.random.Generator
                         lambda rows: lights.local_pdf(at_p[owner[rows]], at_ns[owner[rows]], wi[rows], which[rows],
                                                       chance[rows]), glazed)
         if lights.world is not None:
-            wi, dist, weight = lights.world.sample_incident(at_p, at_ns, w1, w2, owner)
+            wi, dist, weight = lights.world.directions(at_p, at_ns, w1, w2, owner)
             _accumulate(out, shine, at, wi, dist, weight, None, tracer, glossy, weighed,
                         lambda rows: lights.world.mis(at_p[owner[rows]], at_ns[owner[rows]], wi[rows])[2], glazed)
         if glossy is not None:
@@ -97,10 +97,12 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, weig
     MIS weight against the lobe's pdf (``light_pdf(rows)``: the light samples' own pdf, NaN for no MIS) at the points
     ``weighed``, 1 elsewhere. ``at`` = (lo, hi, the point of each sample within lo:hi, the shadow rays' origin at
     each point, and the position, geometric, shading and smooth normal of each sample's point); ``through`` (or
-    ``out`` when None) takes the diffuse light of the rays that went through glass."""
+    ``out`` when None) takes the diffuse light of the rays that went through glass. ``weight``: (N,3), or
+    ``Light.directions``' function of the rows, then asked for the unblocked samples' alone."""
     lo, hi, owner, origin, p, ng, ns, smooth = at
     cos = np.empty(len(wi))
-    sel = np.nonzero(_facing(owner, ng, ns, wi, weight, cos))[0]
+    weigh = weight if callable(weight) else None
+    sel = np.nonzero(_facing(owner, ng, ns, wi, np.zeros((0, 3)) if weigh else weight, cos))[0]
     turned = np.nonzero(bent(smooth, ns)[owner[sel]])[0]  # samples at points a normal map bent
     if len(turned):
         rows, points = sel[turned], owner[sel[turned]]
@@ -111,8 +113,15 @@ def _accumulate(out, shine, at, wi, dist, weight, target_n, tracer, glossy, weig
     on_geometry = None if target_n is None else target_n[sel]
     seen, glass, tint = tracer.visible_through(p, ng, wi[sel], dist[sel], on_geometry, origin, at=owner[sel],
                                                tinted=True)
-    sel, glass = sel[seen], glass[seen]
-    arrived = weight[sel] if tint is None else weight[sel] * tint[seen]  # coloured by the glass on the way
+    sel, glass, tint = sel[seen], glass[seen], None if tint is None else tint[seen]
+    if weigh is None:
+        weight = weight[sel]
+    else:  # as ``_facing`` would have: only a weight positive and finite
+        weight = weigh(sel)
+        total = weight.sum(axis=1)
+        good = np.nonzero((total > 0.0) & (total < np.inf))[0]
+        sel, glass, weight, tint = sel[good], glass[good], weight[good], None if tint is None else tint[good]
+    arrived = weight if tint is None else weight * tint  # coloured by the glass on the way
     light = arrived * (cos[sel] / np.pi)[:, None]
     if through is not None and glass.any():
         through[lo:hi] += group_sum(owner[sel[glass]], light[glass], hi - lo)
@@ -169,13 +178,15 @@ def _lobe_samples(shine, at, lights, tracer, glossy, weighed, rng):
 def _facing(owner, ng, ns, wi, weight, cos):
     """(N,) which light samples can bring light: direction ``wi`` above the shading normal (``cos`` takes
     max(0, ns . wi), the diffuse cosine before ``surface.bump_shadowing``) and the geometric normal of its point
-    ``owner``, and a weight that is positive and finite (no NaN or infinity reaches a pixel)."""
+    ``owner``, and a weight that is positive and finite (no NaN or infinity reaches a pixel; not tested for an empty
+    ``weight``, one weighed later)."""
     keep = np.zeros(len(owner), np.bool_)
+    weighed = len(weight) > 0
     for i in range(len(owner)):
         j = owner[i]
         c = ns[j, 0] * wi[i, 0] + ns[j, 1] * wi[i, 1] + ns[j, 2] * wi[i, 2]
         cos[i] = max(c, 0.0)
-        total = weight[i, 0] + weight[i, 1] + weight[i, 2]
+        total = weight[i, 0] + weight[i, 1] + weight[i, 2] if weighed else 1.0
         keep[i] = c > 0.0 and ng[j, 0] * wi[i, 0] + ng[j, 1] * wi[i, 1] + ng[j, 2] * wi[i, 2] > 0.0 and \
             total > 0.0 and total < np.inf
     return keep

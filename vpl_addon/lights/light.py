@@ -63,6 +63,12 @@ class Light:
     def _sample_incident(self, p, n, u1, u2):
         raise NotImplementedError
 
+    def directions(self, p, n, u1, u2, owner=None):
+        """``sample_incident``'s (wi, dist, weight), where the weight may come as a function of the rows asked for,
+        weigh(rows) -> (R,3): a light whose weight costs more than a shadow ray (the environment map's lookups)
+        weighs only the samples the shadow rays found unblocked (``direct._accumulate``). Here all at once."""
+        return self.sample_incident(p, n, u1, u2, owner)[:3]
+
     def mis(self, p: np.ndarray, n: np.ndarray, w: np.ndarray):
         """What a ray from points p (shading normals n) along unit directions w finds of the light, for multiple
         importance sampling of a glossy lobe against ``sample_incident``: (distance (P,), emitted radiance (P,3),
