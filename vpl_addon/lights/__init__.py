@@ -17,7 +17,9 @@ by ``tests/test_cycles_direct.py``:
 point ``owner[i]``), unit directions toward the light, the distance to the sampled light point (inf for distant
 lights), and L_e / pdf in solid angle: the estimator of the direct diffuse term is then
 ``le_over_pdf * max(0, n.wi) / pi * V``. A sample that cannot receive light (behind a one-sided area light) may
-come back as a zero direction with zero weight.
+come back as a zero direction with zero weight. ``directions(p, n, u1, u2, owner)`` gives the same, but a light
+whose weight costs more than a shadow ray (the environment map) hands its weight as a function of the rows, which
+direct light asks only for the samples whose shadow ray got through.
 
 ``emit(count, rng, center, radius)`` starts light paths (Keller's Instant Radiosity): origins, unit directions and
 the power each carries (emitted radiance over the joint pdf of position and direction, so the mean over paths is the
