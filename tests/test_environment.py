@@ -8,7 +8,7 @@ import pytest
 
 from conftest import plane_scene
 from vpl_addon.core.sampling import uniform_sphere
-from vpl_addon.core.scene import Environment
+from vpl_addon.core.scene import Environment, Scene
 from vpl_addon.lights import EnvironmentLight, LightSet
 from vpl_addon.render import RenderSettings, render
 
@@ -78,12 +78,8 @@ def test_the_map_is_read_only_for_the_samples_its_light_reaches(monkeypatch):
     roof = np.array([[[-500, -500, 6], [500, 500, 6], [500, -500, 6]], [[-500, -500, 6], [-500, 500, 6],
                                                                         [500, 500, 6]]], float)
     floor = plane_scene(res=16)
-    scene = dataclasses.replace(floor, triangles=np.concatenate([floor.triangles, roof]).astype(np.float32),
-                                normals=np.concatenate([floor.normals, np.tile([0, 0, -1.0], (2, 3, 1))]
-                                                       ).astype(np.float32),
-                                uvs=np.zeros((4, 3, 2), np.float32), material=np.concatenate([floor.material] * 2),
-                                object_id=np.concatenate([floor.object_id] * 2),
-                                environment=Environment.checked(sky(sun=(0.3, 0.97))))
+    scene = Scene.build(np.concatenate([floor.triangles, roof]), floor.materials, [], floor.camera,
+                        environment=Environment.checked(sky(sun=(0.3, 0.97))))
     counted = {"drawn": 0, "looked up": 0}
     draw, look = EnvironmentLight.sample, EnvironmentLight._look
 
