@@ -17,7 +17,7 @@ from vpl_addon.methods.vbnl.photon_lights import PhotonLights
 from vpl_addon.methods.vbnl import virtual_light_sampling
 from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
 from vpl_addon.methods.vbnl.morton import radix_tree
-from vpl_addon.methods.vbnl.virtual_light_sampling import _descend
+from vpl_addon.methods.vbnl.virtual_light_sampling import _descend, splits
 from vpl_addon.methods.vbnl.virtual_light_sampling import gather as sampled_gather
 from vpl_addon.paths import vertices
 from vpl_addon.paths.gbuffer import GBuffer
@@ -340,7 +340,7 @@ def test_the_light_tree_draws_by_power_and_changes_few_draws_when_the_lights_cha
         return np.r_[0.0, np.cumsum(p / p.sum())]
 
     def descend(p, code, u):
-        return _descend(cdf(p), *radix_tree(code), u)
+        return _descend(*splits(cdf(p), *radix_tree(code)), u)
     u = rng.random((len(power).bit_length() + 4, 400_000))
     drawn = descend(power, code, u)
     share = np.bincount(drawn, minlength=len(power)) / u.shape[1]
@@ -359,5 +359,5 @@ def test_the_light_tree_draws_by_power_and_changes_few_draws_when_the_lights_cha
     without = kept[descend(power[kept], code[kept], u)]
     assert (without != drawn).mean() < 0.005
     one = tuple(np.zeros(0, np.int64) for _ in range(5))
-    assert _descend(np.array([0.0, 1.0]), *one, u[:1, :5]).tolist() == [0] * 5  # one light
+    assert _descend(*splits(np.array([0.0, 1.0]), *one), u[:1, :5]).tolist() == [0] * 5  # one light
     assert set(descend(np.array([0.0, 1.0]), np.zeros(2, np.uint64), u[:1]).tolist()) == {1}  # no power: never

@@ -91,7 +91,7 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         power = np.maximum(lights.intensity_upto(max_depth - depth).sum(axis=1), 0.0)
         total_power = power.sum()
         choice = power / total_power if total_power > 0 else np.zeros_like(power)
-        tree = (order, np.r_[0.0, np.cumsum(choice[order])], nodes)
+        tree = (order, *splits(np.r_[0.0, np.cumsum(choice[order])], *nodes))
         extend = settings.extension and depth + 1 < max_depth
         following = []
         for v in level:
@@ -157,8 +157,8 @@ def _light_directions(point, lights, u, levels, choice, tree, total_power):
     k = len(point)
     if total_power <= 0:
         return np.zeros(0, np.int64), np.zeros((k, 3)), np.zeros(k, np.int64), np.zeros(k)
-    order, cdf, nodes = tree
-    j = order[_descend(cdf, *nodes, levels)]
+    order, split, left, right = tree
+    j = order[_descend(split, left, right, levels)]
     w, p_light = _toward_discs(point.position, j, lights.position, lights.normal, lights.radius, choice, u[0], u[1])
     lit = np.nonzero((dot(point.shading_normal, w) > 0.0) & (dot(point.geometric_normal, w) > 0.0) &
                      (p_light > 0.0))[0]
@@ -195,13 +195,21 @@ def _extended(y, rows, owner, branch, carried, mean_share, light_set, tracer, nu
     return following
 
 
+def splits(cdf, lo, hi, mid, left, right):
+    """The light tree (``PhotonLights.tree``'s nodes lo, hi, mid, left, right) as ``_descend`` walks it: per internal
+    node the share of its power in its left half (0.5 where it has none), and its children; ``cdf`` (N + 1,) is the
+    normalised cumulative power in tree order from 0."""
+    total = cdf[hi] - cdf[lo]
+    return np.where(total > 0.0, (cdf[mid] - cdf[lo]) / np.where(total > 0.0, total, 1.0), 0.5), left, right
+
+
 @kernel
-def _descend(cdf, lo, hi, mid, left, right, u):
+def _descend(split, left, right, u):
     """(K,) positions in the lights' tree order drawn with probability P_j / sum P: each descends the lights' tree
-    (``PhotonLights.tree``: internal nodes lo, hi, mid, left, right) from the root to the left or right in
-    proportion to the two halves' power, ``cdf`` (N + 1,) being the normalised cumulative power in tree order from
-    0. Every level takes a number of its own from ``u`` (levels, K); below the last, the last is rescaled to the
-    part of [0, 1) it fell in.
+    from the root to the left or right in proportion to the two halves' power (``splits``: the left half's share
+    ``split`` of each internal node, read once per level instead of three cumulative powers and a division: half
+    the time). Every level takes a number of its own from ``u`` (levels, K); below the last, the last is rescaled
+    to the part of [0, 1) it fell in.
 
     The probabilities are those of inverting the cumulative power with one number, but the draws are steady: when
     the powers change a little (the next frame of a sequence), a draw changes only where a level's number falls
@@ -213,15 +221,13 @@ def _descend(cdf, lo, hi, mid, left, right, u):
     was (bench/README.md, "Steady draws")."""
     levels = u.shape[0]
     out = np.zeros(u.shape[1], np.int64)
-    if len(lo) == 0:  # one light
+    if len(left) == 0:  # one light
         return out
     for i in range(u.shape[1]):
         node, level = 0, 0
         x = u[0, i]
         while node >= 0:
-            a, b, m = lo[node], hi[node], mid[node]
-            total = cdf[b] - cdf[a]
-            share = (cdf[m] - cdf[a]) / total if total > 0.0 else 0.5
+            share = split[node]
             if level < levels:
                 x = u[level, i]
             last = level + 1 >= levels  # the next level rescales this number
