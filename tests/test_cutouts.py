@@ -78,6 +78,36 @@ def test_partial_alpha_lets_through_its_share_of_light_and_of_rays():
                                np.full(k, 10.0)).mean() - 0.875) < 0.01
 
 
+def test_a_shadow_ray_that_a_solid_surface_blocks_is_not_traced_again_through_the_cutouts():
+    """Occlusion asks the BVH of the triangles without holes first (``Tracer._parts``): a ray blocked there is
+    blocked, and only the rays it lets through and a cut-out blocks are walked through the layers. Rays down through
+    three half-clear fences onto the floor cost one ray each (the walk for every blocked ray cost 2-4 more); rays up
+    from the floor between the fences are still blocked by the stack half the time, ray by ray."""
+    k = 4000
+    tracer = tracer_of(fence_scene({"alpha": 0.5}, layers=3), seed=2)
+    down = tracer.occluded(np.tile([0.5, 0.5, 2.0], (k, 1)), np.tile([0.0, 0.0, -1.0], (k, 1)), np.full(k, 10.0))
+    assert down.all() and tracer.rays_traced == k
+    up = tracer.occluded(np.tile([0.5, 0.5, 0.01], (k, 1)), np.tile([0.0, 0.0, 1.0], (k, 1)), np.full(k, 10.0))
+    assert abs(up.mean() - 0.875) < 0.02
+
+
+def test_occlusion_follows_cutouts_that_change_without_the_triangles():
+    """A sequence's frame may change alpha without moving a triangle (``SequenceState`` hands the tracer the new
+    ``cutouts``): the BVHs of the scene's solid and holed parts are made again for it. Here the floor becomes a hole
+    and the fence solid: rays up through the floor stopping short of the fence were blocked, now they pass."""
+    tri = np.concatenate([QUAD, QUAD + [0.0, 0.0, 0.5]])
+
+    def scene(floor: dict, fence: dict):
+        return Scene.build(tri, Materials.make([dict(floor, name="floor"), dict(fence, name="fence")]), [SUN], CAM,
+                           material=[1, 1, 2, 2])
+    tracer = tracer_of(scene({}, {"alpha": 0.0}))
+    origins, up, short = np.tile([0.5, 0.5, -0.5], (8, 1)), np.tile([0.0, 0.0, 1.0], (8, 1)), np.full(8, 0.8)
+    assert tracer.occluded(origins, up, short).all()
+    tracer.cutouts = cutouts(scene({"alpha": 0.0}, {}))
+    assert not tracer.occluded(origins, up, short).any()
+    assert tracer.occluded(origins, up, np.full(8, 1.5)).all()  # the fence, solid now
+
+
 def test_a_fully_clear_stack_deeper_than_the_layer_limit_stops_the_ray_at_the_limit():
     scene = fence_scene({"alpha": 0.0}, layers=CUTOUT_LAYERS + 2)
     hits = tracer_of(scene).intersect(np.array([[0.5, 0.5, 10.0]]), np.array([[0.0, 0.0, -1.0]]))
