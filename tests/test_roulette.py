@@ -61,7 +61,9 @@ def test_a_faint_coat_stops_paths_long_before_the_bounce_limit(monkeypatch):
 
 def test_a_rough_coat_takes_fewer_light_samples_for_the_same_light(monkeypatch):
     """At the vertices of a rough coat (``Surface.rough_coat``) the camera paths' next-event estimation takes
-    ``COAT_LIGHT_SAMPLES`` (2) light samples, not the 8 a metal needs, for the same light."""
+    ``COAT_LIGHT_SAMPLES`` (2) light samples, fewer than a metal's ``GLOSSY_LIGHT_SAMPLES`` (4), for the same
+    light."""
+    assert vertices.COAT_LIGHT_SAMPLES < vertices.GLOSSY_LIGHT_SAMPLES
     coated = Materials.make([{"name": "coated", "base_color": (0.8, 0.8, 0.8), "roughness": 0.8,
                               "specular": 0.5, "ior": 1.5}])
     settings = RenderSettings(samples=4, light_samples=1, method="vbnl", seed=1, passes=("Diffuse Indirect",),
@@ -73,10 +75,10 @@ def test_a_rough_coat_takes_fewer_light_samples_for_the_same_light(monkeypatch):
         asked.append(samples)
         return direct_light(surface, lights, tracer, samples, rng, **kwargs)
     monkeypatch.setattr(vertices, "direct_light", counted)
-    light = {}
-    for samples in (vertices.COAT_LIGHT_SAMPLES, vertices.GLOSSY_LIGHT_SAMPLES):
+    light, coat, metal = {}, vertices.COAT_LIGHT_SAMPLES, vertices.GLOSSY_LIGHT_SAMPLES
+    for samples in (coat, metal):
         monkeypatch.setattr(vertices, "COAT_LIGHT_SAMPLES", samples)
         asked.clear()
         light[samples] = render(room(materials=coated, res=32, max_bounces=4), settings).passes["Diffuse Indirect"]
         assert asked and set(asked) == {samples}  # every vertex of the coated room is a rough coat's
-    assert light[2].mean() == pytest.approx(light[8].mean(), rel=0.01)
+    assert light[coat].mean() == pytest.approx(light[metal].mean(), rel=0.01)
