@@ -76,21 +76,24 @@ def _vpl_count(settings: RenderSettings, n: int) -> RenderSettings:
     return dataclasses.replace(settings, placement=dataclasses.replace(settings.placement, vpls=n))
 
 
-def _vbnl_samples(settings: RenderSettings, n: int) -> RenderSettings:
-    """Samples as a user raises them: ``n`` camera samples with one gather pair each (vbnl's default)."""
-    vbnl = settings.placement.vbnl
-    vbnl = dataclasses.replace(vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=0))
-    return dataclasses.replace(settings, samples=n,
-                               placement=dataclasses.replace(settings.placement, vbnl=vbnl))
+def _camera_samples(settings: RenderSettings, n: int) -> RenderSettings:
+    """Samples as a user raises them: ``n`` camera samples, with vbnl's one gather pair each (its default)."""
+    placement = settings.placement
+    if "vbnl" in METHODS:
+        vbnl = placement.vbnl
+        placement = dataclasses.replace(placement, vbnl=dataclasses.replace(
+            vbnl, sampling=dataclasses.replace(vbnl.sampling, samples=0)))
+    return dataclasses.replace(settings, samples=n, placement=placement)
 
 
 VPL_COUNT = Knob("vpls", (64, 256, 1024, 4096, 16384, 65536), (64, 256), _vpl_count)
 SAMPLES = Knob("spp", (1, 4, 16, 64, 256, 1024, 4096), (1, 4))
-# Method -> budget knob. Engine methods not listed here sweep the VPL count; a method with another knob (a photon
-# count, its own samples per pixel) gets an entry here with an ``apply`` that sets it on RenderSettings.
-KNOBS: dict[str, Knob] = {CYCLES: SAMPLES, OIDN: SAMPLES}
-if "vbnl" in METHODS:  # Li et al.: a fixed set of lights, sampled with more camera samples and (BSDF + light) pairs
-    KNOBS["vbnl"] = Knob("samples", (1, 4, 16, 64, 256), (1, 4), _vbnl_samples)
+# a method whose budget is "samples" (``Method.budget``: a fixed set of lights, sampled with more camera samples
+# and (BSDF + light) pairs, as vbnl's) sweeps the camera samples
+CAMERA_SAMPLES = Knob("samples", (1, 4, 16, 64, 256), (1, 4), _camera_samples)
+# Method -> budget knob: Cycles' samples per pixel, each engine method's from its ``budget``
+KNOBS: dict[str, Knob] = {CYCLES: SAMPLES, OIDN: SAMPLES, **{
+    m.name: CAMERA_SAMPLES if m.budget == "samples" else VPL_COUNT for m in METHODS.values()}}
 
 
 def engine_method(method: str) -> str | None:
@@ -100,7 +103,7 @@ def engine_method(method: str) -> str | None:
 
 
 def knob_of(method: str) -> Knob:
-    return KNOBS.get(engine_method(method) or method, VPL_COUNT)
+    return KNOBS[engine_method(method) or method]
 
 
 def all_methods() -> tuple[str, ...]:

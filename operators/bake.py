@@ -301,7 +301,7 @@ class Bake:
             self.report.resumed_from = saved
             return state, saved
         state = SequenceState(self.scene.vpl_gi.method)
-        if getattr(METHODS.get(state.method), "USES_STILL", False):
+        if state.method in METHODS and METHODS[state.method].uses_still:
             movers, since = MovingObjects(self.scene), time.perf_counter()
             for looked in range(self.first, self.last + 1):  # ``steps`` puts the scene back at its frame if stopped
                 movers.look(looked)

@@ -13,9 +13,14 @@ import sys
 import time
 
 from ..vpl_addon.core.denoise import PREFILTERS, QUALITIES
+from ..vpl_addon.methods import METHODS, NONE, PATH_REUSE, MethodSettings
+from ..vpl_addon.methods.base import exposed
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
+
+
+PLACEMENT = exposed(MethodSettings)  # the placement settings users see, each a flag of render and bake
 
 
 class UserError(Exception):
@@ -218,22 +223,15 @@ def _prepare_scene(args):
         raise UserError(str(err)) from None
     scene.render.engine = engine.VPLGIRenderEngine.bl_idname
     settings = scene.vpl_gi
-    for flag in SETTING_FLAGS:
+    for flag in (*SETTING_FLAGS, *(setting.prop for setting in PLACEMENT)):
         if getattr(args, flag) is not None:
             _check_range(settings, flag, getattr(args, flag))
             setattr(settings, flag, getattr(args, flag))
     if args.no_filter:
         settings.filter = False
     settings.denoise = bool(getattr(args, "denoise", False))
-    if args.no_path_extension:
-        settings.path_extension = False
     if getattr(args, "denoise_whole", False):
         settings.denoising_indirect_apart = False
-    if getattr(args, "no_path_reuse", False):
-        settings.path_reuse = False
-    if getattr(args, "path_threshold", None) is not None:
-        _check_range(settings, "path_threshold", args.path_threshold)
-        settings.path_threshold = args.path_threshold
     if args.percentage is not None:
         scene.render.resolution_percentage = args.percentage
     for layer in scene.view_layers:
@@ -253,9 +251,9 @@ def _check_range(settings, flag, value):
         raise UserError(f"--{flag.replace('_', '-')} {value:g}: must be a number {bounds}")
 
 
-SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "vpls", "indirect_samples", "clamp", "interleave",
-                 "photons", "vbnl_samples", "elimination", "smc_replacements", "smc_warmup",
-                 "smc_warmup_rounds", "denoising_prefilter", "denoising_quality")
+# the flags of the render settings that are not placement settings (those come from ``PLACEMENT``)
+SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "indirect_samples", "clamp", "interleave",
+                 "denoising_prefilter", "denoising_quality")
 
 
 def cmd_reference(args) -> int:
@@ -378,15 +376,32 @@ def cmd_scenes(args) -> int:
     return 0
 
 
+def _placement_flag(r, setting) -> None:
+    """The flag of one placement setting (``methods.base.Exposed``): ``--NAME VALUE``, or ``--no-NAME`` for a switch
+    that is on by default; its help the setting's tooltip, said of the methods it applies to."""
+    flag = setting.prop.replace("_", "-")
+    owner = setting.path[0] if setting.path[0] in METHODS else None
+    if owner is None and setting.prop in PATH_REUSE:
+        owner = ", ".join(m.name for m in METHODS.values() if m.reuses_light_paths) + " in a sequence"
+    how = setting.option
+    text = (f"{owner}: " if owner else "") + how.description.replace("%", "%%") + \
+        ("" if setting.kind is bool else f" (default {setting.default})")
+    if setting.kind is bool:
+        r.add_argument(f"--{'no-' if setting.default else ''}{flag}", dest=setting.prop, action="store_const",
+                       const=not setting.default, help=text)
+    elif how.items:
+        r.add_argument(f"--{flag}", choices=[item[0] for item in how.items], help=text)
+    else:
+        r.add_argument(f"--{flag}", type=setting.kind, help=text)
+
+
 def _render_flags(r) -> None:
     """The engine settings shared by ``render`` and ``bake``."""
-    from ..vpl_addon.methods import METHODS
     r.add_argument("--samples", type=int, help="camera samples per pixel")
     r.add_argument("--light-samples", type=int, help="shadow rays per camera sample for direct light")
     r.add_argument("--seed", type=int, help="random seed")
-    r.add_argument("--method", choices=(*METHODS, "none"),
+    r.add_argument("--method", choices=(*METHODS, NONE),
                    help="how virtual lights are placed (default: the scene's setting)")
-    r.add_argument("--vpls", type=int, help="VPL budget: the lights the gather uses")
     r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
     r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
     r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
@@ -404,22 +419,8 @@ def _render_flags(r) -> None:
     r.add_argument("--denoise-whole", action="store_true",
                    help="with --denoise, the whole image in one pass, as Cycles and a compositor Denoise node do it, "
                         "instead of the indirect light apart from the rest (the scene's Indirect Light Apart off)")
-    r.add_argument("--photons", type=int, help="vbnl: light paths traced for photon splitting (0: automatic, a "
-                   "quarter of the camera samples, 2^18 to 2^20)")
-    r.add_argument("--vbnl-samples", type=int, help="vbnl: gather samples per pixel (0: one per camera sample)")
-    r.add_argument("--elimination", choices=("adaptive", "uniform", "none"), help="vbnl: sample elimination")
-    r.add_argument("--no-path-extension", action="store_true", help="vbnl: no camera path extension")
-    r.add_argument("--no-path-reuse", action="store_true",
-                   help="ir, bidir and vbnl in a sequence: trace every light path again when an object or light "
-                        "moved (no path verification)")
-    r.add_argument("--path-threshold", type=float,
-                   help="ir, bidir and vbnl in a sequence: T of eq. 2, keep a moved path's tail when its reflected "
-                        "energy changes less than T (default 0.001; 0: re-trace every moved segment)")
-    r.add_argument("--smc-replacements", type=int, help="smc: VPLs allowed to move per frame (M_max, default 16)")
-    r.add_argument("--smc-warmup", type=int, help="smc: iterations before the first frame of a cold start (100)")
-    r.add_argument("--smc-warmup-rounds", type=int,
-                   help="smc: draws of candidates the warm-up iterations share (16; as many as --smc-warmup: the "
-                        "paper's warm-up, 6 times slower to start; 4: faster, its first frames flicker 5-8 %% more)")
+    for setting in PLACEMENT:
+        _placement_flag(r, setting)
     r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
 
 

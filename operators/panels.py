@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import bpy
 
+from ..vpl_addon.methods import METHODS, NONE, PATH_REUSE
 from .engine import CRYPTOMATTE_TOGGLES, DENOISING_TOGGLE, VPLGIRenderEngine
 
 # Blender's own panels of the Light, Material and World tabs that show for this engine too: EEVEE's, whose polls read
@@ -15,6 +16,22 @@ ADOPTED = (
     "EEVEE_MATERIAL_PT_surface",
     "EEVEE_WORLD_PT_surface",
 )
+
+
+# the summing gather's settings, which apply to the methods whose lights it sums
+SUMMED_GATHER = ("indirect_samples", "clamp", "interleave")
+
+
+def indirect_settings(method: str) -> list[str]:
+    """The settings the render panel shows under Indirect for ``method`` (a name of ``METHODS``, or none): the VPL
+    budget, the method's own settings, path reuse where it keeps light paths, the summing gather's where it sums its
+    lights, and the filter."""
+    chosen = METHODS.get(method)
+    if chosen is None:
+        return ["vpls", "filter"]
+    return ["vpls", *(setting.prop for setting in chosen.options()),
+            *(PATH_REUSE if chosen.reuses_light_paths else ()), *(SUMMED_GATHER if chosen.sums_lights else ()),
+            "filter"]
 
 
 class _VPLGIPanel:
@@ -42,25 +59,9 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         col = layout.column(heading="Indirect")
         col.prop(settings, "method")
         sub = col.column()
-        sub.active = settings.method != "none"
-        sub.prop(settings, "vpls")
-        if settings.method == "vbnl":
-            sub.prop(settings, "vbnl_samples")
-            sub.prop(settings, "photons")
-            sub.prop(settings, "elimination")
-            sub.prop(settings, "path_extension")
-        if settings.method in ("ir", "bidir", "vbnl"):
-            sub.prop(settings, "path_reuse")
-            sub.prop(settings, "path_threshold")
-        if settings.method != "vbnl":
-            if settings.method == "smc":
-                sub.prop(settings, "smc_replacements")
-                sub.prop(settings, "smc_warmup")
-                sub.prop(settings, "smc_warmup_rounds")
-            sub.prop(settings, "indirect_samples")
-            sub.prop(settings, "clamp")
-            sub.prop(settings, "interleave")
-        sub.prop(settings, "filter")
+        sub.active = settings.method != NONE
+        for name in indirect_settings(settings.method):
+            sub.prop(settings, name)
         layout.prop(settings, "denoise")
         sub = layout.column()
         sub.active = settings.denoise

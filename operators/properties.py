@@ -1,35 +1,41 @@
 """Settings of the VPL GI engine, stored on the scene as ``scene.vpl_gi``; defaults come from the engine's own
-settings classes so Blender, the command line and the engine agree."""
-
-from dataclasses import replace
+settings classes so Blender, the command line and the engine agree. The placement settings (the shared ones and
+each method's) are made from their fields' ``methods.base.option`` metadata: a method's settings appear here, in the
+panel and on the command line without a line of this module naming them."""
 
 import bpy
 
 from ..vpl_addon.core.denoise import CLEAN_GUIDES
 from ..vpl_addon.gather.summing import GatherSettings
-from ..vpl_addon.methods import MethodSettings
-from ..vpl_addon.methods.vbnl import VBNLSettings
-from ..vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
+from ..vpl_addon.methods import METHODS, NONE, MethodSettings
+from ..vpl_addon.methods.base import exposed
 from ..vpl_addon.paths.data_passes import Mist
 from ..vpl_addon.progressive import ViewportSettings
 from ..vpl_addon.render import RenderSettings
 
-_RENDER, _GATHER, _PLACE, _VIEW = RenderSettings(), GatherSettings(), MethodSettings(), ViewportSettings()
-_VBNL = _PLACE.vbnl
-_SMC = _PLACE.smc
+_RENDER, _GATHER, _VIEW = RenderSettings(), GatherSettings(), ViewportSettings()
 
 MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}  # the exponents Cycles gives them
 
-METHOD_ITEMS = (
-    ("vbnl", "Virtual Blue Noise Lighting", "Li et al. 2022: lights placed from the camera in a blue-noise "
-                                            "pattern, lit by photon splitting, sampled with MIS and path extension"),
-    ("bidir", "Bidirectional IR", "Segovia et al. 2006: VPLs from the lights and from the camera, resampled by the "
-                                  "power they bring to the image (robust when light comes through a door)"),
-    ("ir", "Instant Radiosity", "Keller 1997: VPLs where light paths from the lights bounce"),
-    ("smc", "Sequential Monte Carlo IR", "Hedman et al. 2016: VPLs kept from frame to frame where the camera "
-                                         "sees them indirectly, at most a few moved per frame (stable animations)"),
-    ("none", "None", "Direct light only: no indirect light is computed"),
-)
+METHOD_ITEMS = tuple((m.name, m.label, m.description) for m in METHODS.values()) + (
+    (NONE, "None", "Direct light only: no indirect light is computed"),)
+
+PLACEMENT = exposed(MethodSettings)  # every placement setting users see: the shared ones, then each method's
+
+
+def _property(setting):
+    """The Blender property of one ``methods.base.Exposed`` setting: its type, default, label, tooltip, range."""
+    how = setting.option
+    common = {"name": how.label, "description": how.description, "default": setting.default}
+    if setting.kind is bool:
+        return bpy.props.BoolProperty(**common)
+    if how.items:
+        return bpy.props.EnumProperty(items=how.items, **common)
+    limits = {key: value for key, value in (("min", how.min), ("max", how.max), ("soft_max", how.soft_max),
+                                            ("precision", how.precision)) if value is not None}
+    if setting.kind is int:
+        return bpy.props.IntProperty(**common, **{k: int(v) for k, v in limits.items()})
+    return bpy.props.FloatProperty(**common, **limits)
 
 
 FILTER_ITEMS = (
@@ -82,9 +88,6 @@ class VPLGISettings(bpy.types.PropertyGroup):
     method: bpy.props.EnumProperty(
         name="Method", items=METHOD_ITEMS, default=_RENDER.method,
         description="How virtual point lights are placed for indirect light")
-    vpls: bpy.props.IntProperty(
-        name="VPLs", default=_PLACE.vpls, min=1, soft_max=1 << 20,
-        description="Virtual lights the gather uses: more is smoother (and slower for the summing methods)")
     indirect_samples: bpy.props.IntProperty(
         name="Indirect Samples", default=_RENDER.indirect_samples, min=1, soft_max=64,
         description="Camera samples per pixel that gather light from the VPLs (at most Samples)")
@@ -119,50 +122,10 @@ class VPLGISettings(bpy.types.PropertyGroup):
                     "converged image than one pass over the whole (up to 12 % lower error on the example scenes, "
                     "none where all the light is indirect), for one denoiser run more. Off: the whole image in one "
                     "pass, as Cycles and a compositor Denoise node on Noisy Image do it")
-    photons: bpy.props.IntProperty(
-        name="Light Paths", default=_VBNL.photons, min=0, soft_max=1 << 26,
-        description="Light paths traced to light the virtual lights (VBNL photon splitting): more is smoother; 0 = "
-                    "automatic, a quarter of the render's camera samples (pixels x Samples / 4), from 262144 to "
-                    "1048576")
-    vbnl_samples: bpy.props.IntProperty(
-        name="Gather Samples", default=_VBNL.sampling.samples, min=0, soft_max=1024,
-        description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each); 0 = one per "
-                    "camera sample, so Samples alone sets the render's quality")
-    elimination: bpy.props.EnumProperty(
-        name="Sample Elimination", default=_VBNL.elimination,
-        items=(("adaptive", "Adaptive", "Blue noise that keeps the density the camera asks for (eq. 2)"),
-               ("uniform", "Uniform", "Blue noise with one radius everywhere (eq. 1)"),
-               ("none", "None", "A random subset of the candidates")),
-        description="How the VBNL candidates are thinned to the light budget")
-    path_extension: bpy.props.BoolProperty(
-        name="Path Extension", default=_VBNL.sampling.extension,
-        description="Extend camera paths where the virtual lights are too sparse for the footprint (eq. 6-9)")
     seed: bpy.props.IntProperty(
         name="Seed", default=_RENDER.seed, min=0,
         description="Seed of the random numbers: the same seed gives the same image")
 
-    smc_replacements: bpy.props.IntProperty(
-        name="Moves per Frame", default=_SMC.replacements, min=1, soft_max=1024,
-        description="Sequential Monte Carlo: VPLs allowed to move between frames (M_max); fewer is steadier, "
-                    "more adapts faster")
-    smc_warmup: bpy.props.IntProperty(
-        name="Warm-up Iterations", default=_SMC.warmup, min=0, soft_max=1000,
-        description="Sequential Monte Carlo: iterations run before the first frame of a (cold) sequence")
-    smc_warmup_rounds: bpy.props.IntProperty(
-        name="Warm-up Draws", default=_SMC.warmup_rounds, min=1, soft_max=100,
-        description="Sequential Monte Carlo: draws of candidates the warm-up iterations share. 16 starts in "
-                    "about 4 s on a Cornell box and flickers as little as the paper's warm-up (as many draws as "
-                    "iterations), which takes about 6 times as long; 4 starts in 1.5 s and flickers 5-8 % more, but "
-                    "its single frames are closer to Cycles")
-    path_reuse: bpy.props.BoolProperty(
-        name="Path Reuse", default=_PLACE.path_reuse,
-        description="In animations, keep light paths between frames and re-trace only those that moving objects "
-                    "cut or lights move (Instant Radiosity, Bidirectional, Virtual Blue Noise)")
-    path_threshold: bpy.props.FloatProperty(
-        name="Path Threshold", default=_PLACE.path_threshold, min=0.0, max=1.0, precision=4,
-        description="Path reuse: a moved light path keeps the rest of its vertices when the energy reflected at "
-                    "its new end changes less than this fraction (Moreau et al. eq. 2); 0 re-traces every moved "
-                    "segment")
     max_bounces: bpy.props.IntProperty(
         name="Total", default=12, min=0, max=1024, **_cycles_setting("max_bounces"),
         description="Most bounces a light path makes (as Cycles' Light Paths > Max Bounces > Total; until set "
@@ -212,12 +175,9 @@ class VPLGISettings(bpy.types.PropertyGroup):
         description="Replace a bake of other settings (or frames not from a bake) found in the folder")
 
     def render_settings(self, passes: tuple[str, ...]) -> RenderSettings:
-        vbnl = VBNLSettings(photons=self.photons, elimination=self.elimination,
-                            sampling=SamplingSettings(samples=self.vbnl_samples, extension=self.path_extension))
-        placement = MethodSettings(vpls=self.vpls, path_reuse=self.path_reuse, path_threshold=self.path_threshold,
-                                   smc=replace(_SMC, replacements=self.smc_replacements, warmup=self.smc_warmup,
-                                               warmup_rounds=self.smc_warmup_rounds),
-                                   vbnl=vbnl)
+        placement = MethodSettings()
+        for setting in PLACEMENT:
+            placement = setting.put(placement, getattr(self, setting.prop))
         world = self.id_data.world  # its Mist Pass and AO distance, as Cycles reads them
         mist = Mist() if world is None else Mist(world.mist_settings.start, world.mist_settings.depth,
                                                  MIST_FALLOFF[world.mist_settings.falloff])
@@ -237,6 +197,9 @@ class VPLGISettings(bpy.types.PropertyGroup):
                                 time_limit=self.viewport_time_limit, denoise=self.viewport_denoise,
                                 denoise_prefilter=self.viewport_denoising_prefilter,
                                 denoise_quality=self.viewport_denoising_quality)
+
+
+VPLGISettings.__annotations__.update({setting.prop: _property(setting) for setting in PLACEMENT})
 
 
 def register():

@@ -44,7 +44,7 @@ from .lights import LightSet
 from .lights.direct import direct_light
 from .materials.cutouts import cutouts
 from .materials.microfacet import GlossyLobe
-from .methods import METHODS, MethodContext, MethodSettings, place
+from .methods import METHODS, NONE, MethodContext, MethodSettings, place
 from .paths.data_passes import Mist, data_passes, first_surfaces_needed
 from .paths.gbuffer import GBuffer
 from .paths.over_metal import over_metal
@@ -68,7 +68,7 @@ class RenderSettings:
     # as Cycles without an animated seed, so their noise does not flicker
     placement_seed: int | None = None
     passes: tuple[str, ...] = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_COLOR, P.EMIT)
-    method: str = "vbnl"  # how virtual lights are placed: vbnl, bidir, ir, or none (no indirect light)
+    method: str = "vbnl"  # how virtual lights are placed: a name of ``methods.METHODS``, or "none" (no indirect light)
     indirect_samples: int = 1  # camera samples per pixel that gather from the VPLs (the filter averages a tile)
     placement: MethodSettings = field(default_factory=MethodSettings)
     gather: GatherSettings = field(default_factory=GatherSettings)
@@ -97,8 +97,8 @@ class RenderSettings:
             raise ValueError(f"light samples must not be negative (got {self.light_samples})")
         if self.indirect_samples < 1:
             raise ValueError(f"indirect samples must be at least 1 (got {self.indirect_samples})")
-        if self.method != "none" and self.method not in METHODS:
-            raise ValueError(f"unknown method {self.method!r}; choose one of none, {', '.join(METHODS)}")
+        if self.method != NONE and self.method not in METHODS:
+            raise ValueError(f"unknown method {self.method!r}; choose one of {NONE}, {', '.join(METHODS)}")
         check_denoising(self.denoise_prefilter, self.denoise_quality)
         if self.placement.vpls < 1:
             raise ValueError(f"the VPL budget must be at least 1 (got {self.placement.vpls})")
@@ -201,7 +201,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     bounces = scene.max_bounces if settings.max_bounces is None else settings.max_bounces
     need_background = lights.world is not None and (P.ENVIRONMENT in want or not settings.film_transparent)
     need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
-        settings.method != "none" and bounces > 0 and len(scene.triangles) > 0
+        settings.method != NONE and bounces > 0 and len(scene.triangles) > 0
     # the gather's filter evens out the interleaving for a picture left as rendered; before OIDN it costs more than
     # it removes (it blends the light of nearby surfaces, which OIDN's guides keep apart): without it the denoised
     # Combined is 13 to 37 % closer to the references with vbnl, 2 to 9 % with the others (bench/README.md)
@@ -213,7 +213,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     vpls, d_min, permutation, context = None, 0.0, None, None
     vbnl = settings.placement.vbnl  # its automatic light paths follow the camera samples (``light_paths``)
     placement = replace(settings.placement, vbnl=replace(vbnl, photons=vbnl.light_paths(w * h * settings.samples)))
-    sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
+    sampled = None if settings.method == NONE else METHODS[settings.method].gather  # its own, if it samples
     try:
         if need_indirect:
             t0 = time.perf_counter()

@@ -11,13 +11,13 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
   from frame to frame: what a method draws from the camera's view is found in it (vbnl's candidates), so that where
   the view did not change its lights stay where they were while an object moves (bench/README.md, "Candidates of
   the still scene");
-* ``place(method, context, settings)`` places the frame's virtual lights with a method module (render hands it
-  in). A method that keeps its own state across frames (``smc``; ``ir``, ``bidir`` and ``vbnl`` their light paths,
-  ``path_verification``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up, so a
-  chunk of frames can begin on another machine) and ``advance(state, context, settings, motion) -> (lights, info)``.
-  For the others the rule is the static one: when nothing they depend on changed (geometry, lights, shading, and the
-  camera for the view-dependent ones), the previous frame's lights are reused and no light path is traced; the
-  placement generator is put back where it was after they were placed, so the frame renders exactly as that one.
+* ``place(method, context, settings)`` places the frame's virtual lights with a ``methods.base.Method`` (render
+  hands it in). A method that keeps its own state across frames (``smc``; ``ir``, ``bidir`` and ``vbnl`` their light
+  paths, ``path_verification``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up,
+  so a chunk of frames can begin on another machine) and ``advance(state, context, settings, motion) -> (lights,
+  info)``. For the others the rule is the static one: when nothing they depend on changed (geometry, lights,
+  shading, and the camera for the view-dependent ones), the previous frame's lights are reused and no light path is
+  traced; the placement generator is put back where it was after they were placed, so the frame renders exactly as that one.
 
 The state pickles (without its tracer), so a bake saves it after every frame and an interrupted bake resumes from
 the last finished frame with exactly the state an uninterrupted bake would have had. Frame ``f`` places its lights
@@ -125,21 +125,20 @@ class SequenceState:
         self._still = _kept(self._still, digest, rest, self._threads, self.center)
         return rest, self._still[1]
 
-    def place(self, module, context, settings):
-        """The frame's lights from ``module``, a method of ``methods.METHODS`` (handed in, so the sequence machinery
-        that methods build on imports none of them)."""
+    def place(self, method, context, settings):
+        """The frame's lights from ``method``, a ``methods.base.Method`` (handed in, so the sequence machinery that
+        methods build on imports none of them)."""
         motion = self.motion or Motion(first=True)
-        if hasattr(module, "advance"):
+        if method.sequential:
             if self.method_state is None:
-                self.method_state = module.start(context, settings)
-            lights, info = module.advance(self.method_state, context, settings, motion)
-        elif self.lights is not None and motion.static(
-                view_dependent=not getattr(module, "VIEW_INDEPENDENT", False)):  # lights that ignore the camera
+                self.method_state = method.start(context, settings)
+            lights, info = method.advance(self.method_state, context, settings, motion)
+        elif self.lights is not None and motion.static(view_dependent=not method.view_independent):
             lights = self.lights
             info = {**self.info, "light_paths": 0, "reused": True}
         else:
-            lights, info = module.place(context, settings)
-        stable = getattr(module, "STABLE_LIGHTS", False)  # lights that keep their slots from frame to frame
+            lights, info = method.place(context, settings)
+        stable = method.stable_lights
         if (info.get("reused") or stable) and self.rng_state is not None:
             # what the caller draws next (the gather's order of the lights) is drawn as in the frame the lights
             # were placed in (or, for stable slots, the first frame): a static frame renders exactly as that frame,

@@ -26,6 +26,7 @@ from ...gather.virtual_lights import REVERSE, VirtualLights
 from ...paths.camera_points import CameraPoints
 from ...paths.light_paths import trace_until
 from ...sequence.path_verification import PlacedFromPaths, follow
+from ..base import Method
 from . import reverse_vpls
 from .light_selection import camera_light_distribution
 from .resampling import camera_power, resample
@@ -92,3 +93,9 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     if state is not None:
         info["light_path_rays"] = state.paths.rays_last_frame
     return kept, info
+
+
+METHOD = Method(
+    "bidir", "Bidirectional IR", "Segovia et al. 2006: VPLs from the lights and from the camera, resampled by the "
+                                 "power they bring to the image (robust when light comes through a door)",
+    place, BidirSettings, start=start, advance=advance, reuses_light_paths=True)

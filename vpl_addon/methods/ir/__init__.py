@@ -11,8 +11,7 @@ from __future__ import annotations
 
 from ...paths.light_paths import trace_until
 from ...sequence.path_verification import LightPathStore, follow
-
-VIEW_INDEPENDENT = True  # its lights do not depend on the camera: a frame where only the camera moved reuses them
+from ..base import Method
 
 
 def place(context, settings):
@@ -30,3 +29,8 @@ def advance(store: LightPathStore, context, settings, motion):
     vpls = store.lights()
     return vpls, {"light_paths": traced, "paths_kept": store.paths, "vpls": len(vpls),
                   "light_path_rays": store.rays_last_frame, "reused": traced == 0}
+
+
+METHOD = Method(
+    "ir", "Instant Radiosity", "Keller 1997: VPLs where light paths from the lights bounce",
+    place, start=start, advance=advance, view_independent=True, reuses_light_paths=True)

@@ -39,6 +39,7 @@ from ...core.color import luminance
 from ...gather.virtual_lights import STANDARD, VirtualLights
 from ...materials.surface import Surface, diffuse_bounce
 from ...paths.camera_points import CameraPoints
+from ..base import Method, option
 from .indirect_visibility import validate
 from .knn_density import knn_density, knn_radii, knn_radius, rendering_k
 from .vpl_radiosity import estimate_radiosity
@@ -46,22 +47,29 @@ from .vpl_radiosity import estimate_radiosity
 
 SELECTION, RENDERING = 0, 1  # the two random streams of a VPL's radiosity paths
 RADIOSITY_BLOCK = 1024  # VPLs per batch of radiosity paths, the batches shared among the tracer's threads
-# A VPL keeps its slot in the set while it lives (a new one takes the slot of the one it replaces), so the sequence
-# keeps the gather's order of the slots from frame to frame: each VPL stays in its interleaving subset.
-STABLE_LIGHTS = True
 
 
 @dataclass
 class SMCSettings:
-    replacements: int = 16  # M_max: VPLs allowed to move per frame
+    replacements: int = option(16, label="Moves per Frame", min=1, soft_max=1024,
+                               description="Sequential Monte Carlo: VPLs allowed to move between frames (M_max); "
+                                           "fewer is steadier, more adapts faster")
     candidate_ratio: int = 16  # intersection points per candidate (16 I points -> I candidates)
     visibility_rays: int = 16  # V: rays per directly visible point toward invalid VPLs
     visibility_iterations: int = 2
     radiosity_samples: int = 16  # paths with next-event estimation per VPL radiosity
     percentile: float = 95.0  # eq. 9: candidates stronger than this percentile of the VPLs count as M_strong
-    warmup: int = 100  # iterations of the algorithm before the first frame of a cold start
-    warmup_rounds: int = 16  # draws of candidates that the warm-up's iterations share (not in the paper; 16 flicker as
-    # little as the paper's 100 on the example sequences, at a sixth of its cold start: bench/README.md)
+    warmup: int = option(100, label="Warm-up Iterations", min=0, soft_max=1000,
+                         description="Sequential Monte Carlo: iterations run before the first frame of a (cold) "
+                                     "sequence")
+    # draws of candidates that the warm-up's iterations share (not in the paper; 16 flicker as little as the paper's
+    # 100 on the example sequences, at a sixth of its cold start: ``bench/sequence_temporal.py``)
+    warmup_rounds: int = option(16, label="Warm-up Draws", min=1, soft_max=100,
+                                description="Sequential Monte Carlo: draws of candidates the warm-up iterations "
+                                            "share. 16 starts in about 4 s on a Cornell box and flickers as little "
+                                            "as the paper's warm-up (as many draws as iterations), which takes about "
+                                            "6 times as long; 4 starts in 1.5 s and flickers 5-8 % more, but its "
+                                            "single frames are closer to Cycles")
     camera_points: int = 1024  # |X|: directly visible points per frame (the paper uses every pixel)
     resampling_k: int = 8  # neighbours for the density of the intersection points (the paper does not say)
     density_k: int = 0  # k of the densities for rendering; 0: eq. 8, max(1, floor(sqrt(I) / 32))
@@ -377,3 +385,11 @@ def place(context, settings):
     """A single frame: a cold start with its warm-up."""
     from ...sequence.motion import Motion
     return advance(start(context, settings), context, settings, Motion(first=True))
+
+
+# A VPL keeps its slot in the set while it lives (a new one takes the slot of the one it replaces), so the sequence
+# keeps the gather's order of the slots from frame to frame: each VPL stays in its interleaving subset.
+METHOD = Method(
+    "smc", "Sequential Monte Carlo IR", "Hedman et al. 2016: VPLs kept from frame to frame where the camera sees "
+                                        "them indirectly, at most a few moved per frame (stable animations)",
+    place, SMCSettings, start=start, advance=advance, stable_lights=True)

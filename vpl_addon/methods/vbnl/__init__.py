@@ -48,6 +48,7 @@ from ...materials.surface import Surface, bounce, diffuse_bounce, shade
 from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
+from ..base import Method, option
 from . import virtual_light_sampling
 from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, fit_slopes, lid_heights, sector_angle, \
     sector_of
@@ -62,15 +63,22 @@ LIFT = 0.05  # a light's reach is found by rays this many radii above its plane 
 REFINE = 16  # catchment points, as a multiple, for a light that few of its first points found (``catchment``)
 AHEAD = 8  # batches of photons traced before their lights exist (about 80 MB at PATHS_PER_BATCH)
 AUTO_PATHS = (1 << 18, 1 << 20)  # the automatic light paths' range (``VBNLSettings.light_paths``)
-USES_STILL = True  # a sequence's candidates come from its still scene: a bake finds what moves before its first frame
+ELIMINATION = (("adaptive", "Adaptive", "Blue noise that keeps the density the camera asks for (eq. 2)"),
+               ("uniform", "Uniform", "Blue noise with one radius everywhere (eq. 1)"),
+               ("none", "None", "A random subset of the candidates"))
 
 
 @dataclass
 class VBNLSettings:
     candidates: int = 10  # M / N: camera candidates per kept light
-    elimination: str = "adaptive"  # adaptive (eq. 2), uniform (eq. 1) or none (random subset)
+    elimination: str = option("adaptive", prop="elimination", label="Sample Elimination", items=ELIMINATION,
+                              description="How the VBNL candidates are thinned to the light budget")
     local: int = 32  # m of eq. 2: the neighbours that estimate a candidate's local density
-    photons: int = 0  # light paths traced for photon splitting; 0: automatic (``light_paths``)
+    # light paths traced for photon splitting; 0: automatic (``light_paths``)
+    photons: int = option(0, prop="photons", label="Light Paths", min=0, soft_max=1 << 26,
+                          description="Light paths traced to light the virtual lights (VBNL photon splitting): more "
+                                      "is smoother; 0 = automatic, a quarter of the render's camera samples (pixels "
+                                      "x Samples / 4), from 262144 to 1048576")
     area_samples: int = 32  # surface points per light that measure its catchment
     sampling: virtual_light_sampling.SamplingSettings = field(
         default_factory=virtual_light_sampling.SamplingSettings)
@@ -385,3 +393,11 @@ def gather_samples(settings, camera_samples: int) -> int:
 def gather(surface, lights, context, settings, rng, glossy=None, pixel=None):
     return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
                                          settings.vbnl.sampling, context.max_bounces, glossy, pixel)
+
+
+# a sequence's candidates come from its still scene: a bake finds what moves before its first frame
+METHOD = Method(
+    "vbnl", "Virtual Blue Noise Lighting", "Li et al. 2022: lights placed from the camera in a blue-noise pattern, "
+                                           "lit by photon splitting, sampled with MIS and path extension",
+    place, VBNLSettings, start=start, advance=advance, gather=gather, gather_samples=gather_samples,
+    uses_still=True, reuses_light_paths=True, budget="samples")

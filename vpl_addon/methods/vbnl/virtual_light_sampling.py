@@ -46,6 +46,7 @@ from ...lights.direct import direct_light
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import bounce_tinted
 from ...paths.vertices import PathVertices, at_metal, merged, roulette
+from ..base import option
 
 
 TREE_SLACK = 4  # numbers for the light tree's levels past log2 N (lights on a surface make it deeper than that)
@@ -56,8 +57,13 @@ class SamplingSettings:
     # sample pairs (BSDF + light) per pixel; 0: one per camera sample (``gather_samples``), so the render's one
     # Samples setting raises the gather with the direct light and the anti-aliasing, which measured better at equal
     # time than more pairs per camera sample (bench/README.md, "One knob")
-    samples: int = 0
-    extension: bool = True  # adaptive camera path extension (eq. 6-9)
+    samples: int = option(0, prop="vbnl_samples", label="Gather Samples", min=0, soft_max=1024,
+                          description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each); "
+                                      "0 = one per camera sample, so Samples alone sets the render's quality")
+    # adaptive camera path extension (eq. 6-9)
+    extension: bool = option(True, prop="path_extension", label="Path Extension",
+                             description="Extend camera paths where the virtual lights are too sparse for the "
+                                         "footprint (eq. 6-9)")
     n_min: float = 40.0
     n_max: float = 80.0
 
