@@ -1,4 +1,4 @@
-"""Bakes on a Dask farm (``bake --workers N``, ``operators/farm.py``): wall time against one process, the chunk size,
+"""Bakes on a Dask farm (``bake --workers N``, ``operators/cli/farm.py``): wall time against one process, the chunk size,
 and the seams where chunks meet, on the 24-frame example sequences.
 
     .venv/bin/python bench/farm.py [--percentage 50] [--chunk-sizes 4,6,8,12] [--workers 2] [--out out/farm]

@@ -90,7 +90,7 @@ def render_once(args) -> None:
     extension_package().register()
     import bpy
     from vpl_gi.bench.runner import PeakMemory
-    from vpl_gi.operators.extract import extract
+    from vpl_gi.operators.scene.extract import extract
     bpy.ops.wm.open_mainfile(filepath=args.scene)
     if args.size:
         size = bpy.context.scene.render

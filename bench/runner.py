@@ -32,9 +32,9 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ..operators.extract import ExtractionError, extract
-from ..operators.output import render_to
-from ..operators.reference import SEED, TWIN_SEED, cache_entry, configure_cycles, make_reference, reference_hash, \
+from ..operators.scene.extract import ExtractionError, extract
+from ..operators.output.render_file import render_to
+from ..operators.output.reference import SEED, TWIN_SEED, cache_entry, configure_cycles, make_reference, reference_hash, \
     stored_info
 from ..vpl_addon.core import passes as P
 from ..vpl_addon.core import tracer as tracer_module

@@ -31,8 +31,8 @@ import bpy  # noqa: E402
 from PIL import Image  # noqa: E402
 
 shared_scenes = importlib.import_module(f"{PKG}.importers.shared_scenes")
-reference = importlib.import_module(f"{PKG}.operators.reference")
-output = importlib.import_module(f"{PKG}.operators.output")
+reference = importlib.import_module(f"{PKG}.operators.output.reference")
+output = importlib.import_module(f"{PKG}.operators.output.render_file")
 exr = importlib.import_module(f"{PKG}.vpl_addon.core.exr")
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])

@@ -66,12 +66,12 @@ def cycles_oidn_frames(scene: str, frames: range, seconds: float, folder: str, p
     extension_package()
     import importlib
     runner = importlib.import_module(f"{PACKAGE}.bench.runner")
-    cli_module = importlib.import_module(f"{PACKAGE}.operators.cli")
-    cli_module._ensure_registered()
+    cli_module = importlib.import_module(f"{PACKAGE}.operators.cli.scene_flags")
+    cli_module.ensure_registered()
     import bpy
 
     def opened(frame):
-        cli_module._open_blend(scene)
+        cli_module.open_blend(scene)
         if percentage:
             bpy.context.scene.render.resolution_percentage = percentage
         bpy.context.scene.frame_set(frame)

@@ -31,7 +31,7 @@ def main():
     from embreex import rtcore_scene
     from embreex.mesh_construction import TriangleMesh
     from vpl_gi.bench.runner import best_of
-    from vpl_gi.operators.extract import extract
+    from vpl_gi.operators.scene.extract import extract
     from vpl_gi.vpl_addon.core.tracer import Tracer
 
     bpy.ops.wm.open_mainfile(filepath=args.scene)

@@ -40,7 +40,7 @@ def load_scene(path, percentage: int | None = None):
     resolution or at ``percentage``."""
     register_extension()
     import bpy
-    from vpl_gi.operators.extract import extract
+    from vpl_gi.operators.scene.extract import extract
     bpy.ops.wm.open_mainfile(filepath=str(path))
     if percentage is not None:
         bpy.context.scene.render.resolution_percentage = percentage

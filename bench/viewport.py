@@ -1,5 +1,5 @@
 """The viewport's figures (issue 24) on the Cornell box, through bpy without a window: the code path ``view_update``
-and ``view_draw`` call (``operators.viewport.Viewport``), the scene camera as the view.
+and ``view_draw`` call (``operators.engine.viewport.Viewport``), the scene camera as the view.
 
 Per method, ``--repeats`` times: the first image (1/4 resolution) after a cold start (extraction, BVH, lights) and
 after a camera move (BVH and light paths kept), their ratio, the first full-resolution pass and its Diffuse
@@ -40,8 +40,8 @@ def _moved(camera, dx):
 
 def measure(method: str, repeats: int, changes: int, window: float, rng: np.random.Generator) -> dict:
     import bpy
-    from vpl_gi.operators.extract import camera_of
-    from vpl_gi.operators.viewport import Viewport
+    from vpl_gi.operators.scene.extract import camera_of
+    from vpl_gi.operators.engine.viewport import Viewport
     from vpl_gi.vpl_addon.core.exr import read_passes
     from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask, errors, pass_mask
     reference, _ = read_passes(str(ROOT / "tests" / "references" / "cornell_area.exr"))

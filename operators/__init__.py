@@ -1,5 +1,7 @@
 """Everything that touches bpy: extraction, settings, the render engine, panels, Cycles references, the CLI."""
-from . import bake, engine, panels, properties
+from .output import bake
+from .engine import render_engine as engine
+from .ui import panels, properties
 
 MODULES = (properties, engine, panels, bake)
 

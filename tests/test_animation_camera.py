@@ -36,9 +36,9 @@ def _animated_camera_scene(bpy):
 
 def test_an_animated_camera_renders_each_frame_from_where_it_is(ext, tmp_path):
     import bpy
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.output import configure_multilayer_exr
-    from vpl_gi.operators.reference import configure_cycles
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.render_file import configure_multilayer_exr
+    from vpl_gi.operators.output.reference import configure_cycles
     from vpl_gi.vpl_addon.core.exr import read_passes
 
     means = {}

@@ -99,7 +99,7 @@ def test_animation_render_carries_the_state_from_frame_to_frame(ext, tmp_path):
     static scene reuse frame 1's lights; the frames of a moving light are placed again; vbnl's state learns what
     moves."""
     import bpy
-    from vpl_gi.operators import engine, frame_state
+    from vpl_gi.operators.engine import render_engine as engine, frame_state
     for blend, reused in (("cornell_area", [False, True, True]), ("seq_moving_light", [False, False, False])):
         bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / f"{blend}.blend"))
         scene = bpy.context.scene
@@ -141,7 +141,8 @@ def test_bake_operator_renders_the_frame_range_and_stopping_keeps_what_is_done(e
     """The render panel's "Bake Indirect Sequence" bakes frame_start..frame_end into the bake folder; a bake stopped
     after a frame (ESC) continues from that frame's state when started again."""
     import bpy
-    from vpl_gi.operators import bake, engine
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.engine import render_engine as engine
     scene = _small_scene(bpy, engine, "seq_moving_light")
     scene.frame_start, scene.frame_end = 3, 5
     scene.vpl_gi.bake_directory = str(tmp_path / "op")
@@ -169,7 +170,8 @@ def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path
     """smc (its VPL set) and ir (its kept light paths, verified against the moving block) resume from the saved
     state exactly where an uninterrupted bake would be."""
     import bpy
-    from vpl_gi.operators import bake, engine
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.engine import render_engine as engine
     for method in ("smc", "ir"):
         scene = _small_scene(bpy, engine, "seq_moving_object")
         scene.vpl_gi.method, scene.vpl_gi.smc_warmup = method, 3
@@ -194,7 +196,8 @@ def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, 
     it moves). Its state keeps their names, frame 2's lights are frame 1's (the box moved, the
     view did not), and a chunk of the sequence writes the frames one bake writes."""
     import bpy
-    from vpl_gi.operators import bake, engine, frame_state
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.engine import render_engine as engine, frame_state
     from vpl_gi.vpl_addon.sequence.state import SequenceState
     scene = _small_scene(bpy, engine, "seq_moving_object")
     scene.vpl_gi.method = "vbnl"
@@ -250,7 +253,8 @@ def test_a_cold_start_looks_ahead_in_steps_that_report_progress_and_can_stop(ext
     its progress, where a stop (ESC) ends the bake before any frame, with the scene back at its frame; started
     again, the bake looks ahead and renders every frame."""
     import bpy
-    from vpl_gi.operators import bake, engine
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.engine import render_engine as engine
     scene = _small_scene(bpy, engine, "seq_moving_object")
     scene.vpl_gi.method = "vbnl"
     scene.frame_start, scene.frame_end = 3, 5
@@ -295,7 +299,8 @@ def test_the_bake_operator_leaves_the_scenes_output_settings_as_they_were(ext, t
     format (file format, colour depth, EXR codec, colour space), the stamps and the current frame as the user had
     them: it renders each frame to its own file with settings of its own."""
     import bpy
-    from vpl_gi.operators import bake, engine
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.engine import render_engine as engine
     scene = _small_scene(bpy, engine, "seq_moving_light")
     scene.frame_start, scene.frame_end = 3, 4
     scene.frame_set(7)

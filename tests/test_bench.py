@@ -112,7 +112,7 @@ def test_bench_cli_tiny_run(ext, tmp_path):
     code, _, stderr = run_cli("reference", EXAMPLES / "cornell_area.blend", "-o", refs / "twin.exr", "--twin",
                               "--percentage", "25", "--samples", "64", "--cache-dir", tmp_path / "cache")
     assert code == 0, stderr
-    from vpl_gi.operators.reference import TWIN_SEED, stored_info
+    from vpl_gi.operators.output.reference import TWIN_SEED, stored_info
     from vpl_gi.vpl_addon.core.exr import read_passes
     assert list(read_passes(str(refs / "twin.exr"))[0]) == ["Combined"]
     assert stored_info(str(refs / "twin.exr"))["seed"] == TWIN_SEED

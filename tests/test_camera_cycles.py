@@ -40,7 +40,7 @@ def lens_blend(tmp_path, dof: bool = True):
 
 def test_depth_of_field_blurs_and_keeps_in_focus_what_cycles_does(ext, tmp_path):
     import bpy
-    from vpl_gi.operators.extract import camera_of
+    from vpl_gi.operators.scene.extract import camera_of
     blend = lens_blend(tmp_path)
     camera = camera_of(bpy.context.scene, bpy.context.evaluated_depsgraph_get())
     assert abs(camera.focus - 2.0) < 1e-6 and abs(camera.aperture - 0.05 / 0.5) < 1e-9 and camera.blades == 5

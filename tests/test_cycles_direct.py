@@ -12,7 +12,7 @@ REFERENCE_SAMPLES = 4096
 
 @pytest.mark.parametrize("name", EXAMPLE_SCENES)
 def test_committed_reference_is_fresh(ext, name):
-    from vpl_gi.operators.reference import reference_hash, stored_info
+    from vpl_gi.operators.output.reference import reference_hash, stored_info
     info = stored_info(str(REFERENCES / f"{name}.exr"))
     assert info.get("samples") == REFERENCE_SAMPLES
     assert info.get("hash") == reference_hash(str(EXAMPLES / f"{name}.blend"), info["samples"], info["frame"],

@@ -42,8 +42,8 @@ def _render_both(tmp, filter_width, samples, toggles, blend=None, setup=_numbere
     import bpy
 
     from conftest import ROOT
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
 
     out = {}
@@ -173,8 +173,8 @@ def test_every_pass_switched_on_is_written_or_named_in_one_warning(ext, tmp_path
     import bpy
 
     from conftest import ROOT
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
 
     bpy.ops.wm.open_mainfile(filepath=str(ROOT / "example_blends" / "cornell_area.blend"))

@@ -23,7 +23,7 @@ def _render(bpy, path, engine_name, denoise, samples, size=64, method="vbnl", li
     """The PBR Cornell box (textures, metal; or ``blend``) with the Denoising Data passes: its view layer's passes.
     ``compositor`` adds a Denoise node fed as for Cycles (``_denoise_node``); ``denoising`` (prefilter, quality)
     sets ours and the node's alike (Cycles' names); ``apart`` our Indirect Light Apart (None: the default)."""
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import LAYER, read_passes
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
@@ -78,7 +78,7 @@ def test_denoising_albedo_and_normal_are_cycles(ext, tmp_path):
     camera space (x right, y up, z forward), as Cycles writes them: means over the covered pixels within 1 % of the
     committed reference's (per channel of the albedo; the normal's mean direction within 0.01)."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     reference = json.loads(GUIDES.read_text())
     ours = _guide_means(_render(bpy, tmp_path / "ours.exr", engine.VPLGIRenderEngine.bl_idname, True, 16))
     assert ours["scene_sha256"] == reference["scene_sha256"], \
@@ -98,7 +98,7 @@ def test_the_denoising_albedo_of_an_emitter_and_of_the_world_is_cycles(ext, tmp_
     such edges (cornell_textured's panel: 1.75 where Cycles has 2.08 beside it)."""
     import bpy
     from conftest import add_mesh, camera_and_black_world, shader_material
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     wall, panel = (shader_material(bpy, name, "ShaderNodeBsdfPrincipled",  # no specular: the colour is the albedo
@@ -132,7 +132,7 @@ def test_compositor_denoise_node_gives_the_denoised_render(ext, tmp_path, denois
     2.4 % at 16, 1.1-1.7 % at 64-256) and up to 12 % closer to the references on the example scenes
     (``core.denoise``). The settings differ from each other (each picture at least 0.1 % rMAE from the defaults')."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     from vpl_gi.vpl_addon.core.exr import read_passes
     from vpl_gi.vpl_addon.evaluation.metrics import errors
     path = tmp_path / "composited.exr"
@@ -175,7 +175,7 @@ def test_denoise_brings_a_few_samples_close_to_the_converged_picture(ext, tmp_pa
     64 x 64: rMAE 0.140 noisy, 0.081 denoised. At 96 x 96 (256 x 8): 0.128 noisy, 0.070 denoised with the
     prefiltered guides; OIDN without guides 0.081, with them unfiltered 0.078 as clean, 0.079 as noisy guides."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     from vpl_gi.vpl_addon.evaluation.metrics import errors
     name = engine.VPLGIRenderEngine.bl_idname
     converged = _render(bpy, tmp_path / "converged.exr", name, False, 256, 64, "none", 4)["Combined"]

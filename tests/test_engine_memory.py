@@ -10,7 +10,7 @@ def test_blender_does_not_keep_the_memory_a_render_freed(ext):
     """A 64 x 64 vbnl render of the Cornell box allocates and frees about half a GB of arrays; without the heap
     handed back after the render, Blender stays that much larger (458 MB here) until it exits."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     from vpl_gi.vpl_addon.core.memory import status_kb, trim_heap
     bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / "cornell_area.blend"))
     scene = bpy.context.scene

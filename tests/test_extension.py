@@ -32,7 +32,7 @@ INSTALL_AND_RENDER = textwrap.dedent("""
     import sys, bpy
     zip_path, blend, out = sys.argv[1:4]
     bpy.ops.extensions.package_install_files(filepath=zip_path, repo="user_default", enable_on_install=True)
-    engine = sys.modules["bl_ext.user_default.vpl_gi.operators.engine"]
+    engine = sys.modules["bl_ext.user_default.vpl_gi.operators.engine.render_engine"]
     print("ENGINE_FILE", engine.__file__)
     bpy.ops.wm.open_mainfile(filepath=blend)
     scene = bpy.context.scene

@@ -22,7 +22,7 @@ def bpy(ext):
 
 
 def extracted(bpy):
-    from vpl_gi.operators.extract import extract
+    from vpl_gi.operators.scene.extract import extract
     return extract(bpy.context.evaluated_depsgraph_get())
 
 
@@ -186,7 +186,7 @@ def test_bounce_limit_follows_cycles_diffuse_and_total_limits(bpy):
 
 
 def test_no_camera_is_a_clear_error(bpy):
-    from vpl_gi.operators.extract import ExtractionError
+    from vpl_gi.operators.scene.extract import ExtractionError
     bpy.context.scene.camera = None
     with pytest.raises(ExtractionError, match="no active camera"):
         extracted(bpy)

@@ -1,4 +1,4 @@
-"""Bakes in chunks on a real Dask cluster (``bake --scheduler``, ``operators/farm.py``): a ``distributed.LocalCluster``
+"""Bakes in chunks on a real Dask cluster (``bake --scheduler``, ``operators/cli/farm.py``): a ``distributed.LocalCluster``
 on loopback with 2 worker processes, the same bytes as one process, a worker SIGKILLed mid-chunk, a finished bake
 re-run, and the bad input a farm meets: an unreachable scheduler, a worker without the extension, a .blend missing
 on the worker, a folder holding another bake or being baked."""
@@ -44,7 +44,8 @@ def test_chunks_on_two_workers_write_the_bytes_of_one_process_and_a_rerun_render
     """smc carries its VPL set from frame to frame: 12 frames in chunks of 4 on two workers give the EXRs, byte for
     byte, of the same chunks baked one after another in this process (last chunk first, so each starts without a
     saved state, as the farm's concurrent chunks do) and of one uninterrupted bake; run again, nothing renders."""
-    from vpl_gi.operators import bake, cli
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.cli import commands as cli, scene_flags
     flags = ["--method", "smc", "--smc-warmup", "5", *TINY]
     scene_file = EXAMPLES / "seq_moving_light.blend"
     farm = tmp_path / "farm"
@@ -56,7 +57,7 @@ def test_chunks_on_two_workers_write_the_bytes_of_one_process_and_a_rerun_render
     assert not (farm / ".farm").exists() and not list(farm.rglob(".partial-*"))
     assert "12/12" in stderr  # the progress bar counted every frame, whichever worker wrote it
 
-    scene = cli._prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:12", "-o", "x",
+    scene = scene_flags.prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:12", "-o", "x",
                                                         *flags]))
     replayed = []
     for chunk in (range(9, 13), range(5, 9), range(1, 5)):
@@ -79,7 +80,8 @@ def test_chunks_on_two_workers_write_the_bytes_of_one_process_and_a_rerun_render
 def test_a_worker_killed_mid_chunk_leaves_no_partial_frame_and_the_bake_completes(cluster, ext, tmp_path):
     """SIGKILL to the worker process rendering a frame: no partial EXR ever carries a final name, Dask runs its chunk
     again (the nanny starts a new worker), and every frame is there, the same bytes as one process writes."""
-    from vpl_gi.operators import bake, cli
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.cli import commands as cli, scene_flags
     flags = ["--method", "ir", "--percentage", "50", "--samples", "4", "--light-samples", "2", "--vpls", "256"]
     scene_file = EXAMPLES / "seq_moving_object.blend"
     out = tmp_path / "farm"
@@ -109,7 +111,7 @@ def test_a_worker_killed_mid_chunk_leaves_no_partial_frame_and_the_bake_complete
     assert killed not in set(cluster.run(os.getpid).values())
     assert frames_in(out) == [f"frame_{f:04d}.exr" for f in range(1, 9)]
     assert not list(out.rglob(".partial-*")) and not (out / ".farm").exists()
-    scene = cli._prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:8", "-o", "x",
+    scene = scene_flags.prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:8", "-o", "x",
                                                         *flags]))
     bake.Bake(scene, str(tmp_path / "whole"), range(1, 9)).run()
     for name in frames_in(out):
@@ -154,11 +156,11 @@ def test_a_blend_missing_on_the_worker_is_one_line_and_renders_nothing(cluster, 
     """A chunk's task names a .blend the worker cannot see (a shared folder not mounted there): the worker says so
     before it opens or writes anything."""
     import pickle
-    from vpl_gi.operators import farm
+    from vpl_gi.operators.cli import farm
     missing = tmp_path / "not_mounted" / "scene.blend"
     task = {"scene": str(missing), "sha256": farm.sha256(EXAMPLES / "seq_moving_light.blend"), "flags": {},
             "out": str(tmp_path / "bake"), "frames": [1, 4], "first": 1}
-    future = cluster.submit(pickle.loads, farm._runs_when_loaded("operators.farm.render_chunk", task), pure=False)
+    future = cluster.submit(pickle.loads, farm._runs_when_loaded("operators.cli.farm.render_chunk", task), pure=False)
     with pytest.raises(farm.FarmError) as err:
         farm._result(future, "frames 1:4")
     message = str(err.value)
@@ -195,7 +197,8 @@ def test_a_folder_holding_another_bake_or_being_baked_is_refused_in_one_line(clu
 def test_a_scheduler_restart_and_a_rerun_complete_the_bake_without_rendering_finished_frames(ext, tmp_path):
     """The scheduler (and its workers) go away mid-bake: the command ends with one line; against a new scheduler the
     same command renders only the missing frames, and they are the frames of one uninterrupted bake."""
-    from vpl_gi.operators import bake, cli
+    from vpl_gi.operators.output import bake
+    from vpl_gi.operators.cli import commands as cli, scene_flags
     flags = ["--method", "ir", "--percentage", "50", "--samples", "4", "--light-samples", "2", "--vpls", "256"]
     scene_file = EXAMPLES / "seq_moving_object.blend"
     out = tmp_path / "farm"
@@ -233,7 +236,7 @@ def test_a_scheduler_restart_and_a_rerun_complete_the_bake_without_rendering_fin
     assert proc.returncode == 0, proc.stderr
     assert f"skipped {len(done)} finished frames" in proc.stdout and f"baked {8 - len(done)} frames" in proc.stdout
     assert done == {name: (out / name).stat().st_mtime_ns for name in done}  # not rendered again
-    scene = cli._prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:8", "-o", "x",
+    scene = scene_flags.prepare_scene(cli.parser().parse_args(["bake", str(scene_file), "--frames", "1:8", "-o", "x",
                                                         *flags]))
     bake.Bake(scene, str(tmp_path / "whole"), range(1, 9)).run()
     assert frames_in(out) == frames_in(tmp_path / "whole") == [f"frame_{f:04d}.exr" for f in range(1, 9)]

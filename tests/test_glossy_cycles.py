@@ -17,8 +17,8 @@ NAME = "cornell_metal"
 @pytest.fixture(scope="module")
 def metal_box(ext):
     import bpy
-    from vpl_gi.operators.extract import extract
-    from vpl_gi.operators.reference import reference_hash, stored_info
+    from vpl_gi.operators.scene.extract import extract
+    from vpl_gi.operators.output.reference import reference_hash, stored_info
     from vpl_gi.vpl_addon.core import passes as P
     from vpl_gi.vpl_addon.core.exr import read_passes
     from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask
@@ -95,9 +95,9 @@ def test_a_glossy_bsdf_floor_at_grazing_reflects_the_sun_as_cycles_does(ext, tmp
     import bpy
     import numpy as np
     from conftest import camera_and_black_world, shader_material
-    from vpl_gi.operators.extract import extract
-    from vpl_gi.operators.output import render_to
-    from vpl_gi.operators.reference import configure_cycles
+    from vpl_gi.operators.scene.extract import extract
+    from vpl_gi.operators.output.render_file import render_to
+    from vpl_gi.operators.output.reference import configure_cycles
     from vpl_gi.vpl_addon.core import passes as P
     from vpl_gi.vpl_addon.core.exr import read_passes
     from vpl_gi.vpl_addon.render import RenderSettings, render

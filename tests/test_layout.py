@@ -1,6 +1,6 @@
 """The repository's layout, checked on the source (AST, nothing imported): the engine's layers import one way, the
-engine and the scene parsers import no Blender, the extension never needs the bench, folders stay small, and a
-module only one method uses lives with that method.
+engine and the scene parsers import no Blender, the extension never imports the bench, no modules import each other
+in a circle, folders stay small, and a module only one method uses lives with that method.
 
 Imports are read wherever they are (a function's lazy import counts) except under ``if TYPE_CHECKING:``, which
 never runs (``core.scene`` names ``lights.Light`` in an annotation that way).
@@ -16,14 +16,12 @@ from conftest import ROOT
 LAYERS = ("core", "materials", "lights", "gather", "paths", "sequence", "methods", "render", "progressive")
 ALLOWED = {layer: set(LAYERS[:i + 1]) for i, layer in enumerate(LAYERS)}
 ALLOWED["evaluation"] = {"core", "evaluation"}  # judges outputs; nothing of the engine imports it
-ALLOWED["__main__"] = set()  # the bootstrap reaches operators.cli by name, not by import
+ALLOWED["__main__"] = set()  # the bootstrap reaches operators.cli.commands by name, not by import
 NO_BLENDER = {"bpy", "mathutils", "bl_math", "gpu", "bmesh"}
 # The scene parsers: plain data, unit-tested without Blender (their builder, importers/shared_scenes.py, uses bpy).
 PARSERS = ("importers/mitsuba.py", "importers/wavefront.py", "importers/cornell_measured.py")
 MAX_MODULES_PER_FOLDER = 12
-# The one import from the shipped extension into bench/ (not shipped): ``bench`` on the command line, which says
-# "run it from a clone" when bench/ is absent.
-BENCH_FROM_EXTENSION = {("operators/cli.py", "bench.runner")}
+FOLDERS = ("vpl_addon", "operators", "importers", "bench")  # the repository's Python, the tests aside
 
 
 def _module_name(path, root) -> tuple[str, ...]:
@@ -135,11 +133,65 @@ def test_the_parsers_and_the_engine_need_no_blender_and_the_extension_no_bench()
         for path in sources(folder):
             for t in imports(path):
                 rel = (str(path.relative_to(ROOT)), ".".join(t) if isinstance(t, tuple) else t)
-                if isinstance(t, tuple) and t[0] == "bench" and rel not in BENCH_FROM_EXTENSION:
+                if isinstance(t, tuple) and t[0] == "bench":
                     bad.append(f"{rel[0]} imports {rel[1]}: bench/ is not shipped in the extension")
                 if folder == "importers" and isinstance(t, tuple) and t[0] == "operators":
                     bad.append(f"{rel[0]} imports {rel[1]}: importers are below the Blender side")
     assert bad == []
+
+
+def import_graph(root=ROOT) -> dict[tuple[str, ...], set[tuple[str, ...]]]:
+    """Module -> the repository modules it imports, at the top or inside a function (the extension's root package
+    ``__init__.py`` is ``("<extension>",)``, as ``imports`` names it)."""
+    graph = {_module_name(path, root): {t for t in imports(path, root) if isinstance(t, tuple)}
+             for folder in FOLDERS for path in sources(folder, root)}
+    graph[("<extension>",)] = {t for t in imports(root / "__init__.py", root) if isinstance(t, tuple)}
+    return graph
+
+
+def circles(graph) -> list[list[str]]:
+    """The groups of modules that import each other, directly or round a loop (strongly connected components of
+    more than one module, or one that imports itself), each sorted, by Tarjan's algorithm."""
+    order, low, stack, found = {}, {}, [], []
+
+    def visit(module):
+        order[module] = low[module] = len(order)
+        stack.append(module)
+        for target in graph.get(module, ()):
+            if target not in graph:
+                continue
+            if target not in order:
+                visit(target)
+                low[module] = min(low[module], low[target])
+            elif target in stack:
+                low[module] = min(low[module], order[target])
+        if low[module] == order[module]:
+            group = stack[stack.index(module):]
+            del stack[stack.index(module):]
+            if len(group) > 1 or module in graph[module]:
+                found.append(sorted(".".join(m) for m in group))
+
+    for module in sorted(graph):
+        if module not in order:
+            visit(module)
+    return sorted(found)
+
+
+def test_no_modules_import_each_other_in_a_circle():
+    assert circles(import_graph()) == []
+
+
+def test_the_check_catches_a_circle_through_a_function_level_import(tmp_path):
+    """The check above, run on a copy of the repository where the farm imports the command line inside a function
+    (as it once did, for the command line's private helpers), reports the two modules."""
+    import shutil
+    copy = tmp_path / "repo"
+    for folder in FOLDERS:
+        shutil.copytree(ROOT / folder, copy / folder, ignore=shutil.ignore_patterns("__pycache__", "results"))
+    shutil.copy(ROOT / "__init__.py", copy / "__init__.py")
+    farm = copy / "operators" / "cli" / "farm.py"
+    farm.write_text(farm.read_text() + "\n\ndef _late():\n    from .commands import main\n")
+    assert circles(import_graph(copy)) == [["operators.cli.commands", "operators.cli.farm"]]
 
 
 def test_folders_stay_small():

@@ -53,7 +53,7 @@ from vpl_addon.__main__ import extension_package
 package = extension_package()
 import bpy
 package.register()
-panels = importlib.import_module("vpl_gi.operators.panels")
+panels = importlib.import_module("vpl_gi.operators.ui.panels")
 runner = importlib.import_module("vpl_gi.bench.runner")
 
 

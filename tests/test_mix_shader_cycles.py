@@ -1,6 +1,6 @@
 """A Mix Shader of a Diffuse and a Glossy BSDF, the way Blender materials were built before the Principled BSDF
 (and still are in many scenes), and of two Principled BSDFs, against Cycles: by a constant factor, a checker mask
-and a Fresnel node (``operators.shader_nodes``: a metallic lobe of the Glossy's colour over the Diffuse, weighted by
+and a Fresnel node (``operators.scene.shader_nodes``: a metallic lobe of the Glossy's colour over the Diffuse, weighted by
 the factor, the mask or the Fresnel curve; two other shaders' inputs blended by the factor or the mask). Floor
 strips of each under a glowing panel and a grey sky, direct light only (a plane lights nothing of itself)."""
 import numpy as np

@@ -36,7 +36,7 @@ def _shown(bpy, tab, **members):
 
 def test_the_light_material_and_world_tabs_show_their_panels_for_the_engine(ext):
     import bpy
-    from vpl_gi.operators import panels
+    from vpl_gi.operators.ui import panels
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene
     scene.render.engine = ENGINE
@@ -82,8 +82,8 @@ def _lit_floor(bpy):
 
 def test_light_paths_and_film_settings_default_to_cycles_and_change_the_render(ext, tmp_path):
     import bpy
-    from vpl_gi.operators.extract import camera_of
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.scene.extract import camera_of
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
     scene = _lit_floor(bpy)
     scene.render.engine = ENGINE
@@ -112,8 +112,8 @@ def test_the_render_runs_on_the_threads_blender_is_set_to(ext, tmp_path):
     import os
 
     import bpy
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.render_file import render_to
     scene = _lit_floor(bpy)
     scene.render.engine = ENGINE
     scene.vpl_gi.method, scene.vpl_gi.samples = "none", 1
@@ -127,7 +127,8 @@ def test_the_passes_panel_shows_every_pass_the_engine_writes(ext):
     """Each toggle the engine reads has its checkbox in the engine's Passes panel, and each checkbox is a view
     layer setting (a wrong name would break the panel's drawing in Blender)."""
     import bpy
-    from vpl_gi.operators import engine, panels
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.ui import panels
     shown = [toggle for _, toggles in panels.VIEWLAYER_PT_vpl_gi_passes.GROUPS for toggle in toggles]
     read = [toggle for _, toggle, _, _ in engine.PASS_TOGGLES] + list(engine.CRYPTOMATTE_TOGGLES.values())
     assert sorted(shown) == sorted(read + ["pass_cryptomatte_depth"])

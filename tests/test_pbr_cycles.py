@@ -19,8 +19,8 @@ CYCLES_1024 = {"Diffuse Direct": 0.0173, "Glossy Direct": 0.0503, "Diffuse Indir
 @pytest.fixture(scope="module")
 def pbr_box(ext):
     import bpy
-    from vpl_gi.operators.extract import extract
-    from vpl_gi.operators.reference import reference_hash, stored_info
+    from vpl_gi.operators.scene.extract import extract
+    from vpl_gi.operators.output.reference import reference_hash, stored_info
     from vpl_gi.vpl_addon.core import passes as P
     from vpl_gi.vpl_addon.core.exr import read_passes
     from vpl_gi.vpl_addon.evaluation.metrics import coverage_mask

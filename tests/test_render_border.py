@@ -51,8 +51,8 @@ def _cube_on_a_floor(bpy, size=(32, 24)):
 
 
 def _render(bpy, tmp_path, name, border=None, crop=False, size=(32, 24), **settings):
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
     scene = _cube_on_a_floor(bpy, size)
     scene.render.engine = engine.VPLGIRenderEngine.bl_idname
@@ -118,7 +118,7 @@ def test_f12_shows_each_finished_band_of_rows(ext, tmp_path):
     rows before the whole result (each through begin_result / end_result, as Cycles' tiles); with a border, the
     border's rows, in the border's result."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     for border, size, bands in ((None, (128, 96), 3), (BORDER, (256, 192), 3)):
         image = _render(bpy, tmp_path, "bands", border, crop=True, size=size, samples=1, light_samples=1)["Combined"]
         assert engine.LAST_STATS["bands_shown"] == bands

@@ -200,7 +200,7 @@ def test_real_scenes_parse_and_say_what_is_missing():
 def test_cornell_measured_converts_to_blender_and_extracts(ext, tmp_path):
     import bpy
     shared_scenes = importlib.import_module(f"{ext.__name__}.importers.shared_scenes")
-    extract = importlib.import_module(f"{ext.__name__}.operators.extract")
+    extract = importlib.import_module(f"{ext.__name__}.operators.scene.extract")
     out = tmp_path / "cornell.blend"
     written, _ = shared_scenes.convert(str(SHARED), "cornell_measured", str(out))
     assert written and out.is_file()
@@ -236,7 +236,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
     import tempfile
     shared_scenes = importlib.import_module(f"{ext.__name__}.importers.shared_scenes")
     read_passes = importlib.import_module(f"{ext.__name__}.vpl_addon.core.exr").read_passes
-    render_to = importlib.import_module(f"{ext.__name__}.operators.output").render_to
+    render_to = importlib.import_module(f"{ext.__name__}.operators.output.render_file").render_to
     from mathutils import Vector
     h, w = 32, 64
     v, u = np.mgrid[0:h, 0:w]
@@ -249,7 +249,7 @@ def test_envmap_reads_the_texel_mitsuba_reads(ext, tmp_path):
                                                                 element='emitter type="envmap"'))
     scene, warnings = shared_scenes.build(data, samples=4)
     assert not any("envmap" in line for line in warnings)
-    extract = importlib.import_module(f"{ext.__name__}.operators.extract")
+    extract = importlib.import_module(f"{ext.__name__}.operators.scene.extract")
     found = []
     constant, environment = extract._world(scene, found)  # VPL GI renders the map itself, rotated as Cycles does
     assert not found and environment is not None and environment.image.shape[2] == 3

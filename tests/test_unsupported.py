@@ -1,6 +1,6 @@
 """What VPL GI does not render (issue 22): light portals, volumes, hair, point clouds, light linking, shadow catchers,
 holdouts, motion blur and Cycles' ray visibility are left out or approximated with exactly one warning
-that names the object, material or setting (``operators/unsupported.py``); a portal gives no light and a fog box
+that names the object, material or setting (``operators/scene/unsupported.py``); a portal gives no light and a fog box
 hides nothing."""
 import numpy as np
 import pytest
@@ -190,8 +190,8 @@ def test_a_holdout_shader_renders_black(bpy):
 def _render(bpy, tmp_path):
     """Combined of the current scene rendered by the engine at 16 x 16 pixels, 4 samples, direct light only, and
     its reports."""
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
     scene = bpy.context.scene
     scene.render.engine = engine.VPLGIRenderEngine.bl_idname

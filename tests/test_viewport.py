@@ -1,4 +1,4 @@
-"""The 3D view's Rendered shading (issue 24), driven through bpy without a window: ``operators.viewport.Viewport``,
+"""The 3D view's Rendered shading (issue 24), driven through bpy without a window: ``operators.engine.viewport.Viewport``,
 the code path ``view_update`` / ``view_draw`` call, on the Cornell box with the scene's camera as the view.
 
 Times are printed (``-s``), not asserted, but where they matter the work is counted: rays, light paths, BVH builds.
@@ -36,7 +36,7 @@ def cornell(ext):
         scene.vpl_gi.method = method
         scene.vpl_gi.viewport_samples = samples
         depsgraph = bpy.context.evaluated_depsgraph_get()
-        return scene, depsgraph, _module("operators.extract").camera_of(scene, depsgraph)
+        return scene, depsgraph, _module("operators.scene.extract").camera_of(scene, depsgraph)
     return open_
 
 
@@ -45,7 +45,7 @@ def viewport(ext):
     made = []
 
     def make(passes=("Combined",)):
-        made.append(_module("operators.viewport").Viewport(passes=passes))
+        made.append(_module("operators.engine.viewport").Viewport(passes=passes))
         return made[-1]
     yield make
     for view in made:
@@ -91,8 +91,8 @@ def test_the_plan_refines_resolution_samples_and_light_budget():
 def test_view_camera_of_the_camera_matrices_is_the_scene_camera(cornell, ext):
     """A 3D view looking through the scene camera (its view and projection matrices, as the region gives them) is
     rendered with the camera F12 renders, perspective and orthographic (whose rays start at the near plane)."""
-    view_camera = _module("operators.viewport").view_camera
-    camera_of = _module("operators.extract").camera_of
+    view_camera = _module("operators.engine.viewport").view_camera
+    camera_of = _module("operators.scene.extract").camera_of
     scene, depsgraph, _ = cornell()
     obj = scene.camera
     for kind in ("PERSP", "ORTHO"):
@@ -114,8 +114,8 @@ def test_view_camera_of_the_camera_matrices_is_the_scene_camera(cornell, ext):
 
 
 def test_a_view_through_the_camera_takes_its_depth_of_field_and_a_focus_pull_renders_again(cornell, ext):
-    viewport = _module("operators.viewport")
-    extract = _module("operators.extract")
+    viewport = _module("operators.engine.viewport")
+    extract = _module("operators.scene.extract")
     scene, depsgraph, _ = cornell()
     obj = scene.camera
     obj.data.dof.use_dof, obj.data.dof.aperture_fstop, obj.data.dof.focus_distance = True, 1.4, 3.0
@@ -300,7 +300,7 @@ def test_time_limit_and_denoise(cornell, viewport):
     scene.render.resolution_percentage = 25
     scene.vpl_gi.viewport_time_limit = 0.01
     depsgraph.update()
-    small = _module("operators.extract").camera_of(scene, depsgraph)
+    small = _module("operators.scene.extract").camera_of(scene, depsgraph)
     roughness = []
     for denoised in (False, True):
         scene.vpl_gi.viewport_denoise = denoised
@@ -315,7 +315,7 @@ def test_time_limit_and_denoise(cornell, viewport):
 
 def test_viewport_settings_leave_bakes_alone(cornell):
     """The viewport's settings render no frame: a bake made before they change is still the same bake."""
-    settings_key = _module("operators.frame_state").settings_key
+    settings_key = _module("operators.engine.frame_state").settings_key
     scene, _, _ = cornell()
     before = settings_key(scene)
     scene.vpl_gi.viewport_samples = 3
@@ -345,7 +345,7 @@ scene.collection.objects.link(scene.camera)
 bpy.ops.render.render()
 import gpu
 from mathutils import Matrix
-viewport = importlib.import_module("vpl_gi.operators.viewport")
+viewport = importlib.import_module("vpl_gi.operators.engine.viewport")
 progressive = importlib.import_module("vpl_gi.vpl_addon.progressive")
 image = np.random.default_rng(1).random((3, 5, 4)).astype(np.float32)
 frame = progressive.Frame({{"Combined": image}}, "refine", 1, 0.0, number=1)

@@ -60,7 +60,7 @@ def lamp_in_view(bpy, kind):
 
 
 def rendered(bpy, tmp_path, engine_name, visible=True, kind=None):
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import LAYER, read_passes
     if kind is None:
         lamp_under_a_ceiling(bpy, visible)
@@ -79,7 +79,7 @@ def rendered(bpy, tmp_path, engine_name, visible=True, kind=None):
 
 def test_an_area_light_the_camera_sees_is_drawn_as_cycles_draws_it(ext, tmp_path):
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     cycles = rendered(bpy, tmp_path, "CYCLES")
     ours = rendered(bpy, tmp_path, engine.VPLGIRenderEngine.bl_idname)
     radiance = 20.0 / (0.8 * 0.8 * np.pi)  # Blender: an area light's power over its area and pi
@@ -98,7 +98,7 @@ def test_point_spot_and_sun_lights_the_camera_sees_are_drawn_as_cycles_draws_the
     Combined, Emission and Denoising Albedo, adding nothing to a transparent film's alpha (measured). The images'
     means (size times radiance) and the pixels each covers (shape) must agree."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     cycles = rendered(bpy, tmp_path, "CYCLES", kind=kind)
     ours = rendered(bpy, tmp_path, engine.VPLGIRenderEngine.bl_idname, kind=kind)
     cycles["Emit"] = cycles.pop("Emission")  # Cycles' name of the pass as it writes it

@@ -13,7 +13,7 @@ WORLD = np.array([0.2, 0.4, 0.8]) * 1.5  # Background Color x Strength
 
 
 def _render(bpy, scene, path):
-    from vpl_gi.operators.output import render_to
+    from vpl_gi.operators.output.render_file import render_to
     from vpl_gi.vpl_addon.core.exr import read_passes
     render_to(scene, str(path))
     return read_passes(str(path))[0]
@@ -45,8 +45,8 @@ def _cube_under_a_blue_sky(bpy):
 
 def test_the_world_shows_behind_the_geometry_unless_the_film_is_transparent(ext, tmp_path):
     import bpy
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.reference import configure_cycles
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.reference import configure_cycles
 
     out = {}
     for who in ("cycles", "ours"):
@@ -88,8 +88,8 @@ def test_an_hdri_shows_behind_the_geometry_as_in_cycles(ext, tmp_path):
     samples for direct light, looked up along each ray's direction, pixel by pixel as Cycles shows it."""
     import bpy
     from test_environment_cycles import hdri_blend
-    from vpl_gi.operators import engine
-    from vpl_gi.operators.reference import configure_cycles
+    from vpl_gi.operators.engine import render_engine as engine
+    from vpl_gi.operators.output.reference import configure_cycles
 
     blend = hdri_blend(tmp_path)
     out = {}

@@ -1,4 +1,4 @@
-"""Worlds read through Cycles (``operators/world_bake.py``): a Sky Texture lights a scene as Cycles lights it, and
+"""Worlds read through Cycles (``operators/scene/world_bake.py``): a Sky Texture lights a scene as Cycles lights it, and
 the baked map has the engine's orientation, is cached by the tree and baked again when the tree changes."""
 import math
 
@@ -43,7 +43,7 @@ def test_the_baked_map_is_oriented_as_the_engine_reads_it_and_cached(ext, world_
     w /= np.linalg.norm(w, axis=1, keepdims=True)
     assert np.abs(light.radiance(w) - (w + 1) / 2).max() < 0.03
 
-    from vpl_gi.operators.world_bake import world_digest
+    from vpl_gi.operators.scene.world_bake import world_digest
     cached = sorted(world_cache.glob("*.npy"))
     assert [p.stem for p in cached] == [world_digest(world)]
     before = world_digest(world)
@@ -83,7 +83,7 @@ def test_a_sky_texture_lights_the_scene_as_cycles_does(ext, tmp_path, world_cach
 def test_esc_stops_the_bake_which_says_what_it_does_and_caches_nothing(ext, world_cache):
     """While Cycles bakes, the engine's status line is told so (F12 shows it) and ESC stops the bake at once."""
     import bpy
-    from vpl_gi.operators.extract import extract
+    from vpl_gi.operators.scene.extract import extract
     from vpl_gi.vpl_addon.render import Cancelled
     world, nodes, links = _world(bpy, "Sky to cancel")
     links.new(nodes.new("ShaderNodeTexSky").outputs["Color"], nodes["Background"].inputs["Color"])

@@ -57,7 +57,7 @@ def test_engine_bug_in_blender_is_one_error_report_and_saves_nothing(blend, monk
     """F12 path (bpy.ops.render.render with the VPL GI engine): a NaN made by the gather becomes one ERROR report
     naming method and stage, no traceback is printed, and the .blend is not touched."""
     import bpy
-    from vpl_gi.operators import engine
+    from vpl_gi.operators.engine import render_engine as engine
     spoil_gather(monkeypatch)
     bpy.ops.wm.open_mainfile(filepath=str(blend))
     scene = bpy.context.scene
@@ -75,7 +75,7 @@ def test_engine_bug_in_blender_is_one_error_report_and_saves_nothing(blend, monk
 def test_failed_render_keeps_the_existing_image_even_with_overwrite(blend, tmp_path, monkeypatch, capsys):
     """The CLI with --overwrite over an existing image, and an engine bug mid-render: one error line naming the
     stage, the old image byte-identical, no partial file left."""
-    from vpl_gi.operators.cli import main
+    from vpl_gi.operators.cli.commands import main
     spoil_gather(monkeypatch)
     out = tmp_path / "keep.exr"
     out.write_bytes(b"precious")

@@ -1,6 +1,6 @@
 """The engine's scene: world-space geometry, materials, lights, world and camera as numpy arrays.
 
-Everything downstream of extraction reads only this. It is built either from Blender (``operators/extract.py``)
+Everything downstream of extraction reads only this. It is built either from Blender (``operators/scene/extract.py``)
 or directly in code (tests, stress scenes). ``Scene.build`` sanitises the input on purpose: triangles with
 non-finite corners or zero area are dropped (and counted per object so the caller can name them), shading normals
 that are missing, non-finite or zero fall back to the geometric normal, non-finite UVs become 0, non-finite or

@@ -52,21 +52,19 @@ RADIOSITY_BLOCK = 1024  # VPLs per batch of radiosity paths, the batches shared 
 @dataclass
 class SMCSettings:
     replacements: int = option(16, label="Moves per Frame", min=1, soft_max=1024,
-                               description="Sequential Monte Carlo: VPLs allowed to move between frames (M_max); "
-                                           "fewer is steadier, more adapts faster")
+                               description="VPLs allowed to move between frames (M_max): fewer is steadier, more "
+                                           "adapts faster")
     candidate_ratio: int = 16  # intersection points per candidate (16 I points -> I candidates)
     visibility_rays: int = 16  # V: rays per directly visible point toward invalid VPLs
     visibility_iterations: int = 2
     radiosity_samples: int = 16  # paths with next-event estimation per VPL radiosity
     percentile: float = 95.0  # eq. 9: candidates stronger than this percentile of the VPLs count as M_strong
     warmup: int = option(100, label="Warm-up Iterations", min=0, soft_max=1000,
-                         description="Sequential Monte Carlo: iterations run before the first frame of a (cold) "
-                                     "sequence")
+                         description="Iterations run before the first frame of a (cold) sequence")
     # draws of candidates that the warm-up's iterations share (not in the paper; 16 flicker as little as the paper's
     # 100 on the example sequences, at a sixth of its cold start: ``bench/sequence_temporal.py``)
     warmup_rounds: int = option(16, label="Warm-up Draws", min=1, soft_max=100,
-                                description="Sequential Monte Carlo: draws of candidates the warm-up iterations "
-                                            "share. 16 starts in about 4 s on a Cornell box and flickers as little "
+                                description="Draws of candidates the warm-up iterations share. 16 starts in about 4 s on a Cornell box and flickers as little "
                                             "as the paper's warm-up (as many draws as iterations), which takes about "
                                             "6 times as long; 4 starts in 1.5 s and flickers 5-8 % more, but its "
                                             "single frames are closer to Cycles")

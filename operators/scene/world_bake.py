@@ -22,8 +22,8 @@ from typing import Callable
 import bpy
 import numpy as np
 
-from ..vpl_addon.core.compiled import cache_root
-from ..vpl_addon.render import Cancelled
+from ...vpl_addon.core.compiled import cache_root
+from ...vpl_addon.render import Cancelled
 
 WIDTH, HEIGHT = 1024, 512  # a texel is 0.35 degrees: Nishita's sun disc (0.545 degrees) spans about two
 SAMPLES = 16  # a smooth world (the sky without its sun disc): Diffuse Direct mean within 0.1 % of Cycles

@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 
-from ..vpl_addon.core.camera import Camera, view_window
-from ..vpl_addon.core.scene import Environment, Scene
-from ..vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
+from ...vpl_addon.core.camera import Camera, view_window
+from ...vpl_addon.core.scene import Environment, Scene
+from ...vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
 from .shader_nodes import MaterialTable, image_pixels
 from .unsupported import Unsupported
 from .world_bake import BakeError, baked_world

@@ -13,8 +13,8 @@ import json
 
 import numpy as np
 
-from ..vpl_addon.sequence.state import SequenceState, frame_seed
-from .extract import GEOMETRY_TYPES
+from ...vpl_addon.sequence.state import SequenceState, frame_seed
+from ..scene.extract import GEOMETRY_TYPES
 
 _ACTIVE: SequenceState | None = None  # set by a bake around each frame
 _ANIMATION: dict[str, tuple[SequenceState, int]] = {}  # animation render: key -> (state, last frame)

@@ -35,9 +35,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..vpl_addon.core.color import srgb_to_linear
-from ..vpl_addon.core.scene import Materials, TextureMap
-from ..vpl_addon.materials.microfacet import constant_reflectance_tint
+from ...vpl_addon.core.color import srgb_to_linear
+from ...vpl_addon.core.scene import Materials, TextureMap
+from ...vpl_addon.materials.microfacet import constant_reflectance_tint
 
 CHANNELS = {"Red": 0, "R": 0, "Green": 1, "G": 1, "Blue": 2, "B": 2}
 # Principled BSDF inputs of layers the engine does not render: any value but 0 is named in a warning

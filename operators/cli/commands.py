@@ -6,57 +6,31 @@ Every failure the user can cause (missing file, no camera, unwritable output, ..
 from __future__ import annotations
 
 import argparse
+import importlib
+import importlib.util
 import json
-import math
 import os
 import sys
 import time
 
-from ..vpl_addon.core.denoise import PREFILTERS, QUALITIES
-from ..vpl_addon.methods import METHODS, NONE, PATH_REUSE, MethodSettings
-from ..vpl_addon.methods.base import exposed
+from .scene_flags import UserError, open_blend, prepare_scene, render_flags, verify
 
 EXIT_USAGE = 2
 EXIT_FAILED = 1
 
 
-PLACEMENT = exposed(MethodSettings)  # the placement settings users see, each a flag of render and bake
-
-
-class UserError(Exception):
-    """A problem with the input that the message explains."""
-
-
-def _open_blend(path: str):
-    import bpy
-    if not os.path.isfile(path):
-        raise UserError(f"no such file: {path}")
-    try:
-        bpy.ops.wm.open_mainfile(filepath=os.path.abspath(path))
-    except RuntimeError as err:
-        raise UserError(f"cannot open {path}: {str(err).strip().splitlines()[-1]}") from None
-    return bpy.context.scene
-
-
-def _ensure_registered():
-    import bpy
-    if not hasattr(bpy.types.Scene, "vpl_gi"):
-        from .. import register
-        register()
-
-
 def cmd_render(args) -> int:
-    from . import engine
-    from .output import check_target, render_to
+    from ..engine import render_engine as engine
+    from ..output.render_file import check_target, render_to
 
     out = check_target(args.output, args.overwrite)
     if os.path.exists(out) and os.path.exists(args.scene) and os.path.samefile(out, args.scene):
         raise UserError(f"{out} is the scene being rendered; choose another output file")
-    scene = _prepare_scene(args)
+    scene = prepare_scene(args)
     if args.frame is not None:
         scene.frame_set(args.frame)
     t0 = time.perf_counter()
-    render_to(scene, out, _verify)
+    render_to(scene, out, verify)
     for level, message in engine.LAST_REPORTS:
         if level == "WARNING":
             print(f"warning: {message}", file=sys.stderr)
@@ -75,14 +49,6 @@ def cmd_render(args) -> int:
     return 0
 
 
-def _verify():
-    """Called before an image replaces anything: the engine's first error, if any, ends the run."""
-    from . import engine
-    errors = [m for level, m in engine.LAST_REPORTS if level == "ERROR"]
-    if errors:
-        raise UserError(errors[0])
-
-
 def parse_frames(text: str) -> range:
     """``A:B`` (inclusive, as Blender's -s/-e) or a single frame ``A``."""
     try:
@@ -96,8 +62,8 @@ def parse_frames(text: str) -> range:
 
 
 def cmd_bake(args) -> int:
-    from .bake import Bake, BakeError
-    from .output import render_to
+    from ..output.bake import Bake, BakeError
+    from ..output.render_file import render_to
     frames = parse_frames(args.frames)
     if not os.path.isfile(args.scene):
         raise UserError(f"no such file: {args.scene}")
@@ -116,7 +82,7 @@ def cmd_bake(args) -> int:
         raise UserError(f"--sequence-start {args.sequence_start}: the frame a chunk's sequence starts at, at or "
                         f"before its first frame {frames.start}, and not with --workers or --scheduler (they chunk "
                         f"the range themselves)")
-    scene = _prepare_scene(args)
+    scene = prepare_scene(args)
     t0 = time.perf_counter()
     if farm:
         return _bake_on_cluster(args, scene, frames, t0)
@@ -139,7 +105,7 @@ def cmd_bake(args) -> int:
                   f"{entry['seconds']:.2f} s", flush=True)
         return True
 
-    report = bake.run(progress, lambda path: render_to(scene, path, _verify))
+    report = bake.run(progress, lambda path: render_to(scene, path, verify))
     for warning in report.warnings:
         print(f"warning: {warning}", file=sys.stderr)
     if report.skipped:
@@ -155,10 +121,10 @@ def cmd_bake(args) -> int:
 
 
 def _bake_on_cluster(args, scene, frames, t0) -> int:
-    """``bake`` in chunks on Dask workers (``operators/farm.py``): an existing scheduler's, or N processes here."""
+    """``bake`` in chunks on Dask workers (``operators/cli/farm.py``): an existing scheduler's, or N processes here."""
     import importlib.util
     from . import farm
-    from .bake import Bake, BakeError, frame_path
+    from ..output.bake import Bake, BakeError, frame_path
     if importlib.util.find_spec("distributed") is None:
         raise UserError("--workers and --scheduler need Dask: pip install 'dask[distributed]'")
     client = cluster = None
@@ -211,59 +177,14 @@ def _bake_on_cluster(args, scene, frames, t0) -> int:
     return 0
 
 
-def _prepare_scene(args):
-    """Open ``args.scene`` with the VPL GI engine, the settings given as flags and every pass on."""
-    from . import engine
-    from .extract import ExtractionError, camera_of
-    _ensure_registered()
-    scene = _open_blend(args.scene)
-    try:
-        camera_of(scene)
-    except ExtractionError as err:
-        raise UserError(str(err)) from None
-    scene.render.engine = engine.VPLGIRenderEngine.bl_idname
-    settings = scene.vpl_gi
-    for flag in (*SETTING_FLAGS, *(setting.prop for setting in PLACEMENT)):
-        if getattr(args, flag) is not None:
-            _check_range(settings, flag, getattr(args, flag))
-            setattr(settings, flag, getattr(args, flag))
-    if args.no_filter:
-        settings.filter = False
-    settings.denoise = bool(getattr(args, "denoise", False))
-    if getattr(args, "denoise_whole", False):
-        settings.denoising_indirect_apart = False
-    if args.percentage is not None:
-        scene.render.resolution_percentage = args.percentage
-    for layer in scene.view_layers:
-        for _, toggle, _, _ in engine.LIGHT_PASSES:
-            setattr(layer, toggle, True)
-    return scene
-
-
-def _check_range(settings, flag, value):
-    """Blender clamps a number outside its property's range without a word (and keeps NaN): refuse it instead."""
-    prop = settings.bl_rna.properties[flag]
-    if not hasattr(prop, "hard_min"):
-        return
-    if not (math.isfinite(value) and prop.hard_min <= value <= prop.hard_max):
-        bounds = f"between {prop.hard_min:g} and {prop.hard_max:g}" if prop.hard_max < 1e9 else \
-            f"of at least {prop.hard_min:g}"
-        raise UserError(f"--{flag.replace('_', '-')} {value:g}: must be a number {bounds}")
-
-
-# the flags of the render settings that are not placement settings (those come from ``PLACEMENT``)
-SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "indirect_samples", "clamp", "interleave",
-                 "denoising_prefilter", "denoising_quality")
-
-
 def cmd_reference(args) -> int:
-    from .output import check_target
-    from .reference import SEED, TWIN_SEED, make_reference
+    from ..output.render_file import check_target
+    from ..output.reference import SEED, TWIN_SEED, make_reference
 
     out = check_target(args.output, args.overwrite)
     if not os.path.isfile(args.scene):
         raise UserError(f"no such file: {args.scene}")
-    _open_blend(args.scene)
+    open_blend(args.scene)
     info = make_reference(args.scene, out, args.samples, args.frame, args.cache_dir, args.percentage,
                           TWIN_SEED if args.twin else SEED)
     how = "from cache" if info.get("cached") else f"{info['seconds']:.1f} s"
@@ -272,7 +193,7 @@ def cmd_reference(args) -> int:
 
 
 def cmd_compare(args) -> int:
-    from ..vpl_addon.evaluation.compare import compare_files, compare_sequences
+    from ...vpl_addon.evaluation.compare import compare_files, compare_sequences
     folders = [os.path.isdir(p) for p in (args.image, args.reference)]
     for path, folder in zip((args.image, args.reference), folders):
         if not (folder or os.path.isfile(path)):
@@ -293,66 +214,9 @@ def cmd_compare(args) -> int:
     return 0
 
 
-def cmd_bench(args) -> int:
-    try:
-        from ..bench.runner import Bench, BenchError, Options, all_methods, default_methods, parse_budgets
-    except ModuleNotFoundError as err:
-        if err.name != f"{__package__.rpartition('.')[0]}.bench":
-            raise
-        raise UserError("the benchmark runs from a clone of the repository: bench/ is not part of the installed "
-                        "extension") from None
-    methods = [m.strip() for m in args.methods.split(",") if m.strip()] if args.methods else list(default_methods())
-    for m in methods:
-        if m not in all_methods():
-            raise UserError(f"--methods: unknown method {m!r}; choose from {', '.join(all_methods())}")
-    if not methods:
-        raise UserError("--methods: name at least one method")
-    for scene in args.scenes:
-        if not os.path.isfile(scene):
-            raise UserError(f"no such file: {scene}")
-    for flag in ("samples", "light_samples", "percentage", "gather_rays", "seeds"):
-        value = getattr(args, flag)
-        if value is not None and value < (0 if flag == "light_samples" else 1):
-            raise UserError(f"--{flag.replace('_', '-')} must be at least {0 if flag == 'light_samples' else 1}")
-    if args.time_cap is not None and args.time_cap <= 0:
-        raise UserError("--time-cap must be positive")
-    try:
-        budgets = parse_budgets(args.budgets, methods)
-    except BenchError as err:
-        raise UserError(str(err)) from None
-    out_dir = os.path.abspath(args.out)
-    stems = [os.path.splitext(os.path.basename(s))[0] for s in args.scenes]
-    targets = ["bench.csv", "summary.txt", *(f"{s}.png" for s in stems)] + (["scaling.csv"] if args.scaling else [])
-    existing = [os.path.join(out_dir, t) for t in targets if os.path.exists(os.path.join(out_dir, t))]
-    if existing and not args.overwrite:
-        raise UserError(f"{existing[0]} exists; pass --overwrite to replace it (or choose another --out)")
-    os.makedirs(out_dir, exist_ok=True)
-    quick = args.quick
-    options = Options(scenes=[os.path.abspath(s) for s in args.scenes], methods=methods, budgets=budgets,
-                      out_dir=out_dir, percentage=args.percentage or (25 if quick else None),
-                      samples=args.samples or (2 if quick else None),
-                      light_samples=args.light_samples if args.light_samples is not None else (2 if quick else None),
-                      denoise_prefilter=args.denoising_prefilter, denoise_quality=args.denoising_quality,
-                      time_cap=args.time_cap if args.time_cap is not None else (10.0 if quick else 40.0),
-                      reference_samples=args.reference_samples, cache_dir=args.cache_dir,
-                      gather_rays=args.gather_rays or (200_000 if quick else 2_000_000), quick=quick,
-                      scaling=args.scaling, seeds=args.seeds or 1)
-    if args.reference_dir:
-        options.reference_dir = os.path.abspath(args.reference_dir)
-    _ensure_registered()
-    try:
-        summary = Bench(options, _open_blend).run()
-    except BenchError as err:
-        raise UserError(str(err)) from None
-    with open(os.path.join(out_dir, "summary.txt"), "w") as f:
-        f.write("\n".join(summary) + "\n")
-    print("\n".join(summary))
-    return 0
-
-
 def cmd_scenes(args) -> int:
-    from ..importers import shared_scenes
-    from ..importers.mitsuba import MitsubaError
+    from ...importers import shared_scenes
+    from ...importers.mitsuba import MitsubaError
     if not os.path.isdir(args.source):
         raise UserError(f"no such folder: {args.source} (the public scenes, ../shared/scenes from the repository)")
     names = args.names or list(shared_scenes.SCENES)
@@ -376,54 +240,6 @@ def cmd_scenes(args) -> int:
     return 0
 
 
-def _placement_flag(r, setting) -> None:
-    """The flag of one placement setting (``methods.base.Exposed``): ``--NAME VALUE``, or ``--no-NAME`` for a switch
-    that is on by default; its help the setting's tooltip, said of the methods it applies to."""
-    flag = setting.prop.replace("_", "-")
-    owner = setting.path[0] if setting.path[0] in METHODS else None
-    if owner is None and setting.prop in PATH_REUSE:
-        owner = ", ".join(m.name for m in METHODS.values() if m.reuses_light_paths) + " in a sequence"
-    how = setting.option
-    text = (f"{owner}: " if owner else "") + how.description.replace("%", "%%") + \
-        ("" if setting.kind is bool else f" (default {setting.default})")
-    if setting.kind is bool:
-        r.add_argument(f"--{'no-' if setting.default else ''}{flag}", dest=setting.prop, action="store_const",
-                       const=not setting.default, help=text)
-    elif how.items:
-        r.add_argument(f"--{flag}", choices=[item[0] for item in how.items], help=text)
-    else:
-        r.add_argument(f"--{flag}", type=setting.kind, help=text)
-
-
-def _render_flags(r) -> None:
-    """The engine settings shared by ``render`` and ``bake``."""
-    r.add_argument("--samples", type=int, help="camera samples per pixel")
-    r.add_argument("--light-samples", type=int, help="shadow rays per camera sample for direct light")
-    r.add_argument("--seed", type=int, help="random seed")
-    r.add_argument("--method", choices=(*METHODS, NONE),
-                   help="how virtual lights are placed (default: the scene's setting)")
-    r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
-    r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
-    r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
-    r.add_argument("--no-filter", action="store_true",
-                   help="skip the geometry-aware filter of the indirect light (a denoised render skips it anyway)")
-    r.add_argument("--denoise", action="store_true",
-                   help="denoise Combined with OpenImageDenoise (F12's default; off here, so that Combined is the "
-                        "estimate the benchmark judges unless asked)")
-    r.add_argument("--denoising-prefilter", type=str.upper, choices=PREFILTERS,
-                   help="with --denoise, as Cycles' Denoise > Prefilter: ACCURATE denoises the albedo and normal "
-                        "guides first (three OIDN runs), FAST takes them as noisy and NONE as clean (one run each; "
-                        "default: the scene's setting)")
-    r.add_argument("--denoising-quality", type=str.upper, choices=QUALITIES,
-                   help="with --denoise, OIDN's network as Cycles' Denoise > Quality (default: the scene's setting)")
-    r.add_argument("--denoise-whole", action="store_true",
-                   help="with --denoise, the whole image in one pass, as Cycles and a compositor Denoise node do it, "
-                        "instead of the indirect light apart from the rest (the scene's Indirect Light Apart off)")
-    for setting in PLACEMENT:
-        _placement_flag(r, setting)
-    r.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's)")
-
-
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m vpl_addon",
                                 description="VPL GI: indirect light with virtual lights, judged against Cycles.")
@@ -432,7 +248,7 @@ def parser() -> argparse.ArgumentParser:
     r.add_argument("scene", help="the .blend file")
     r.add_argument("-o", "--output", required=True, help="multilayer EXR to write")
     r.add_argument("--frame", type=int, help="frame to render (default: the scene's current frame)")
-    _render_flags(r)
+    render_flags(r)
     r.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
     r.set_defaults(run=cmd_render)
     bk = sub.add_parser("bake", help="render a frame range to one multilayer EXR per frame, carrying each "
@@ -440,7 +256,7 @@ def parser() -> argparse.ArgumentParser:
     bk.add_argument("scene", help="the .blend file")
     bk.add_argument("--frames", required=True, help="FIRST:LAST, inclusive (e.g. 1:48)")
     bk.add_argument("-o", "--output", required=True, help="folder for frame_NNNN.exr (and the bake's state)")
-    _render_flags(bk)
+    render_flags(bk)
     bk.add_argument("--overwrite", action="store_true",
                     help="replace a bake of other settings (or frames not from a bake) in the folder")
     bk.add_argument("--sequence-start", type=int, metavar="FRAME",
@@ -475,42 +291,13 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--heatmap", help="PNG of the per-pixel relative error")
     c.add_argument("--passes", help="comma-separated pass names (default: all in common)")
     c.set_defaults(run=cmd_compare)
-    b = sub.add_parser("bench", help="time against error: every method and Cycles over their budgets, CSV + plots")
-    b.add_argument("scenes", nargs="+", metavar="SCENE.blend")
-    b.add_argument("--methods", help="comma-separated, from the engine's methods, each also as METHOD+oidn (its "
-                                     "render denoised, judged on Combined), cycles and cycles+oidn (default: every "
-                                     "engine method, the default one +oidn, cycles, cycles+oidn)")
-    b.add_argument("--budgets", action="append", metavar="[METHOD=]N,N,...",
-                   help="budgets of one method (VPL count; samples per pixel for cycles), or of every engine "
-                        "method without METHOD=; repeatable")
-    b.add_argument("--percentage", type=int, help="resolution percentage (default: the scene's; --quick: 25)")
-    b.add_argument("--samples", type=int, help="engine camera samples per pixel (default: the scene's; --quick: 2); "
-                   "vbnl's budget is its camera samples, so its runs take theirs from --budgets")
-    b.add_argument("--light-samples", type=int, help="engine light samples (default: the scene's; --quick: 2)")
-    b.add_argument("--denoising-prefilter", type=str.upper, choices=PREFILTERS,
-                   help="the denoised engine runs' prefilter, as Cycles' (default: the scene's setting; Cycles + "
-                        "OIDN keeps the scene's)")
-    b.add_argument("--denoising-quality", type=str.upper, choices=QUALITIES,
-                   help="the denoised engine runs' OIDN quality, as Cycles' (default: the scene's setting)")
-    b.add_argument("--time-cap", type=float,
-                   help="skip a method's larger budgets once its next run would take longer than this many seconds "
-                        "(default 40; --quick: 10)")
-    b.add_argument("--seeds", type=int,
-                   help="run every budget with seeds 0..N-1; the curves take each budget's mean time and rMAE "
-                        "(default 1)")
-    b.add_argument("--scaling", action="store_true",
-                   help="also time the first scene against triangle, pixel and VPL count (scaling.csv)")
-    b.add_argument("--gather-rays", type=int, help="gather shadow rays replayed against raw embreex (default 2 M)")
-    b.add_argument("--quick", action="store_true", help="a smoke run of seconds: 25 %% resolution, two budgets")
-    b.add_argument("--out", default=os.path.join("out", "bench"), help="output folder (default out/bench)")
-    b.add_argument("--reference-dir", help="committed references to use when their hash is fresh "
-                                           "(default tests/references)")
-    b.add_argument("--reference-samples", type=int, default=4096,
-                   help="Cycles samples of a reference that must be rendered (default 4096)")
-    b.add_argument("--cache-dir", default=os.path.join(os.path.expanduser("~"), ".cache", "vpl_gi"),
-                   help="where rendered references are kept by hash")
-    b.add_argument("--overwrite", action="store_true", help="replace the output files if they exist")
-    b.set_defaults(run=cmd_bench)
+    bench = _optional_command("bench.command")
+    if bench is None:
+        b = sub.add_parser("bench", help="time against error (from a clone of the repository)")
+        b.add_argument("rest", nargs=argparse.REMAINDER)
+        b.set_defaults(run=_bench_missing)
+    else:
+        bench.add_parser(sub)
     sc = sub.add_parser("scenes", help="convert the public scenes (Mitsuba XML, Cornell measured data, glTF) to .blend")
     sc.add_argument("names", nargs="*", help="scenes to convert (default: all)")
     sc.add_argument("--source", default=os.path.join("..", "shared", "scenes"),
@@ -520,6 +307,20 @@ def parser() -> argparse.ArgumentParser:
     sc.add_argument("--force", action="store_true", help="rewrite files even if their fingerprint is current")
     sc.set_defaults(run=cmd_scenes)
     return p
+
+
+def _optional_command(name: str):
+    """The module of a command that lives in an optional part of the repository (``bench/``, which the extension
+    does not ship), or None where that part is absent."""
+    package = __package__.split(".")[0]
+    if importlib.util.find_spec(f"{package}.{name.split('.')[0]}") is None:
+        return None
+    return importlib.import_module(f"{package}.{name}")
+
+
+def _bench_missing(args) -> int:
+    raise UserError("the benchmark runs from a clone of the repository: bench/ is not part of the installed "
+                    "extension")
 
 
 def main(argv=None) -> int:

@@ -105,10 +105,10 @@ class FarmReport:
 def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int, progress=None,
                     threads: int | None = None) -> FarmReport:
     """Bake ``bake``'s frames (the client's ``Bake``: the frames claimed, the settings recorded) in chunks of
-    ``chunk_size`` on ``client``'s workers; ``flags`` are the command line's (``cli._prepare_scene``), ``threads`` the
+    ``chunk_size`` on ``client``'s workers; ``flags`` are the command line's (``cli.prepare_scene``), ``threads`` the
     CPU threads a worker renders on (None: the scene's setting, every core; the pixels are the same).
     ``progress(done)`` is called with the frames in the folder as they appear. FarmError for a chunk that failed."""
-    from .bake import frame_path
+    from ..output.bake import frame_path
 
     frames, out_dir = bake.frames, bake.out_dir
     report = FarmReport()
@@ -125,7 +125,7 @@ def bake_on_cluster(client, bake, scene_path: str, flags: dict, chunk_size: int,
                 "frames": [c.start, c.stop - 1], "first": frames.start,
                 "last": frames.stop - 1, "threads": threads}
         key = f"vpl-gi-bake-{c.start}-{c.stop - 1}-{digest[:8]}-{os.urandom(4).hex()}"
-        futures[client.submit(pickle.loads, _runs_when_loaded("operators.farm.render_chunk", task), key=key,
+        futures[client.submit(pickle.loads, _runs_when_loaded("operators.cli.farm.render_chunk", task), key=key,
                               pure=False)] = c
     shown = len(report.skipped)
     lost_since = None
@@ -232,10 +232,10 @@ def render_chunk(task: dict) -> dict:
 
 
 def _render_chunk(task: dict) -> dict:
-    from .bake import Bake, BakeError
-    from .cli import UserError, _prepare_scene, _verify
-    from .output import render_to
-    from ..vpl_addon.core.memory import heap_for_renders
+    from ..output.bake import Bake, BakeError
+    from .scene_flags import UserError, prepare_scene, verify
+    from ..output.render_file import render_to
+    from ...vpl_addon.core.memory import heap_for_renders
 
     heap_for_renders()  # a Dask worker's 64-KiB trim threshold made its renders 1.8x slower
     host, t0 = socket.gethostname(), time.perf_counter()
@@ -253,11 +253,11 @@ def _render_chunk(task: dict) -> dict:
     def render_frame(target):  # complete frames only under their final names, partial ones in this host's folder
         os.makedirs(staging, exist_ok=True)
         staged = os.path.join(staging, os.path.basename(target))
-        render_to(scene, staged, _verify)
+        render_to(scene, staged, verify)
         os.replace(staged, target)
 
     try:
-        scene = _prepare_scene(argparse.Namespace(**task["flags"]))
+        scene = prepare_scene(argparse.Namespace(**task["flags"]))
         if task.get("threads"):  # workers that share a machine share its cores
             scene.render.threads_mode, scene.render.threads = "FIXED", task["threads"]
         bake = Bake(scene, task["out"], range(first, last + 1), first=task["first"], claim=False,
@@ -272,7 +272,7 @@ def _render_chunk(task: dict) -> dict:
 def _clear_staging(out_dir: str) -> None:
     """This host's staging folder, if no live process of this host writes into it: the partial files of workers
     that died, then the folder."""
-    from .output import remove_stale_partials
+    from ..output.render_file import remove_stale_partials
     staging = os.path.join(out_dir, STAGING_DIR, socket.gethostname())
     if not os.path.isdir(staging):
         return

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import bpy
 
-from ..vpl_addon.methods import METHODS, NONE, PATH_REUSE
-from .engine import CRYPTOMATTE_TOGGLES, DENOISING_TOGGLE, VPLGIRenderEngine
+from ...vpl_addon.methods import METHODS, NONE, PATH_REUSE
+from ..engine.render_engine import CRYPTOMATTE_TOGGLES, DENOISING_TOGGLE, VPLGIRenderEngine
 
 # Blender's own panels of the Light, Material and World tabs that show for this engine too: EEVEE's, whose polls read
 # their own COMPAT_ENGINES for external engines to join (Cycles' read one set shared by every Cycles panel)

@@ -14,12 +14,12 @@ import time
 import bpy
 import numpy as np
 
-from ..vpl_addon.core import cryptomatte
-from ..vpl_addon.core import passes as P
-from ..vpl_addon.core.memory import trim_heap
-from ..vpl_addon.core.passes import BadOutput
-from ..vpl_addon.render import Cancelled, render
-from .extract import ExtractionError, depth_of_field, extract
+from ...vpl_addon.core import cryptomatte
+from ...vpl_addon.core import passes as P
+from ...vpl_addon.core.memory import trim_heap
+from ...vpl_addon.core.passes import BadOutput
+from ...vpl_addon.render import Cancelled, render
+from ..scene.extract import ExtractionError, depth_of_field, extract
 from .frame_state import FRAME_LOG, active_sequence
 from .viewport import ImageTexture, Viewport, view_camera
 

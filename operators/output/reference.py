@@ -16,10 +16,10 @@ import time
 
 import bpy
 
-from ..vpl_addon.core import passes as P
-from ..vpl_addon.core.exr import read_header, read_passes, write_passes
-from .engine import LIGHT_PASSES
-from .output import render_to
+from ...vpl_addon.core import passes as P
+from ...vpl_addon.core.exr import read_header, read_passes, write_passes
+from ..engine.render_engine import LIGHT_PASSES
+from .render_file import render_to
 
 HEADER_KEY = "vplReference"
 KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT)

@@ -14,12 +14,12 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..vpl_addon.core import passes as P
-from ..vpl_addon.core.camera import Camera
-from ..vpl_addon.progressive import ProgressiveRenderer
-from ..vpl_addon.render import Cancelled
-from ..vpl_addon.sequence.motion import Motion, Snapshot
-from .extract import ExtractionError, extract
+from ...vpl_addon.core import passes as P
+from ...vpl_addon.core.camera import Camera
+from ...vpl_addon.progressive import ProgressiveRenderer
+from ...vpl_addon.render import Cancelled
+from ...vpl_addon.sequence.motion import Motion, Snapshot
+from ..scene.extract import ExtractionError, extract
 
 
 def view_camera(view_matrix, window_matrix, width: int, height: int, film=None, lens: dict | None = None) -> Camera:

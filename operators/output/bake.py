@@ -34,11 +34,11 @@ from typing import Callable
 
 import bpy
 
-from ..vpl_addon.methods import METHODS
-from ..vpl_addon.sequence.state import SequenceState
-from . import engine
-from .frame_state import MovingObjects, rendering, settings_key
-from .output import _alive, render_to
+from ...vpl_addon.methods import METHODS
+from ...vpl_addon.sequence.state import SequenceState
+from ..engine import render_engine as engine
+from ..engine.frame_state import MovingObjects, rendering, settings_key
+from .render_file import _alive, render_to
 
 MANIFEST = "bake.json"
 STATE_DIR = ".bake-state"

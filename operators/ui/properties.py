@@ -5,13 +5,13 @@ panel and on the command line without a line of this module naming them."""
 
 import bpy
 
-from ..vpl_addon.core.denoise import CLEAN_GUIDES
-from ..vpl_addon.gather.summing import GatherSettings
-from ..vpl_addon.methods import METHODS, NONE, MethodSettings
-from ..vpl_addon.methods.base import exposed
-from ..vpl_addon.paths.data_passes import Mist
-from ..vpl_addon.progressive import ViewportSettings
-from ..vpl_addon.render import RenderSettings
+from ...vpl_addon.core.denoise import CLEAN_GUIDES
+from ...vpl_addon.gather.summing import GatherSettings
+from ...vpl_addon.methods import METHODS, NONE, MethodSettings
+from ...vpl_addon.methods.base import exposed
+from ...vpl_addon.paths.data_passes import Mist
+from ...vpl_addon.progressive import ViewportSettings
+from ...vpl_addon.render import RenderSettings
 
 _RENDER, _GATHER, _VIEW = RenderSettings(), GatherSettings(), ViewportSettings()
 

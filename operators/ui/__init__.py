@@ -1,0 +1,1 @@
+"""The render properties' settings and panels: what the user sees and sets."""
