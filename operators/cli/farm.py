@@ -42,7 +42,7 @@ import threading
 import time
 from dataclasses import dataclass, field
 
-# Frames per chunk (``--chunk-size``): 4 chunks of a 24-frame shot, 2 per worker of two; chunks of 4, 6 and 12 took
+# Frames per chunk (``--chunk-size``): 4 chunks of a 24-frame shot, 2 per worker of two; chunks of 4, 6 and 12 take
 # the same time in bench/farm.py (ir, 2 workers), where the fixed costs of the cluster dominate.
 DEFAULT_CHUNK_SIZE = 6
 STAGING_DIR = ".farm"
@@ -237,7 +237,7 @@ def _render_chunk(task: dict) -> dict:
     from ..output.render_file import render_to
     from ...vpl_addon.core.memory import heap_for_renders
 
-    heap_for_renders()  # a Dask worker's 64-KiB trim threshold made its renders 1.8x slower
+    heap_for_renders()  # a Dask worker's 64-KiB trim threshold makes its renders 1.8x slower
     host, t0 = socket.gethostname(), time.perf_counter()
     first, last = task["frames"]
     where = f"worker on {host} (pid {os.getpid()}), frames {first}:{last}"

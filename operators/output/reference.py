@@ -23,8 +23,8 @@ from .render_file import render_to
 
 HEADER_KEY = "vplReference"
 KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT)
-# Kept too, but not part of the hash: a reference made before they were kept stays valid for the passes above
-# (the example scenes made before glossy materials have none).
+# Kept too, but not part of the hash: a reference without them stays valid for the passes above (the committed
+# references of the diffuse example scenes have none).
 GLOSSY_PASSES = P.GLOSSY
 SEED = 0
 TWIN_SEED = 17  # a second reference's seed: noise independent of the first's

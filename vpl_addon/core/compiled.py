@@ -1,5 +1,5 @@
 """Compiled kernels: the hot loops that numpy runs as many passes over temporary arrays, fused into one loop each by
-numba's JIT (issue 26).
+numba's JIT.
 
 Every kernel is ``kernel``-decorated: compiled without the GIL (``nogil``), so the render's blocks, which already
 run on all cores (``render``), run their kernels concurrently; no kernel is ``parallel``, since numba's default
@@ -63,7 +63,7 @@ def kept_tables(name: str, source: str, make: Callable[[], tuple[np.ndarray, ...
         with tempfile.NamedTemporaryFile(dir=os.path.dirname(path), suffix=".npz", delete=False) as f:
             np.savez(f, *arrays)
         os.replace(f.name, path)
-    except OSError:  # a read-only cache folder: the tables are made in every process, as before
+    except OSError:  # a read-only cache folder: the tables are made in every process, as without a cache
         pass
     return arrays
 

@@ -11,8 +11,7 @@ How, and at what cost, is chosen as in Cycles, with Cycles' names (its render an
 the compositor Denoise node's): the *prefilter* is ``ACCURATE`` (the guides denoised first, three filter runs),
 ``FAST`` (one run that takes the guides as noisy) or ``NONE`` (one run that takes them as clean); the *quality* is
 OIDN's ``HIGH`` (its large network with clean guides), ``BALANCED`` or ``FAST``. At 256 x 256 on 2 cores
-``ACCURATE`` / ``HIGH`` takes 0.72 s, ``FAST`` / ``HIGH`` 0.11 s (bench/README.md, "Latest (twentieth session):
-what the denoiser's settings cost").
+``ACCURATE`` / ``HIGH`` takes 0.72 s, ``FAST`` / ``HIGH`` 0.11 s.
 
 OIDN's network is not symmetric under a vertical flip (the same image upside down denoises 2-3 % differently, in
 rMAE), so the images go to it bottom row first, the way Blender holds images: a compositor Denoise node fed by our
@@ -21,16 +20,16 @@ passes then gives exactly our denoised Combined.
 Our guides are means of noise-free values (no path is traced for them), so what makes them noisy is having few
 samples per pixel over an edge or a texture: from ``CLEAN_GUIDES`` camera samples per pixel on, *Accurate* does not
 denoise them first (``prefilter_for``) but hands them to the colour's run as clean, as *None* does, for the same
-picture in a third of the time (bench/README.md, "Thirty-first session").
+picture in a third of the time.
 
 *Indirect light apart* (the render's ``denoise_indirect_apart``, on by default) goes one step past Cycles: the
 indirect light in Combined (the colours times Diffuse and Glossy Indirect) and the rest are denoised each on its own,
 with the same guides, and added. The gather's noise is not the direct light's, and one network run over their sum
 leaves more of both: Combined's rMAE is 3.5-7 % lower on the four Cornell boxes at 16 and 64 samples, 10-12.5 % on the
 PBR box and cornell_measured, 3.5-5 % in the living room, 0-2 % on the Veach scenes and the corridor (2 seeds;
-bench/README.md, "Thirty-fifth session"), for one OIDN run more (0.27 s at 256 x 256). A compositor Denoise node on
-Noisy Image, Cycles' own set-up, denoises Combined whole: it gives our picture with this off, and one 0.2-3.9 %
-rMAE from it with it on (the most at few samples and small images).
+``bench/denoise_passes.py`` denoises both ways), for one OIDN run more (0.27 s at 256 x 256). A compositor Denoise
+node on Noisy Image, Cycles' own set-up, denoises Combined whole: it gives our picture with this off, and one
+0.2-3.9 % rMAE from it with it on (the most at few samples and small images).
 
 Progress and cancelling (ESC) reach into OIDN's filters through its progress monitor, which ``pyoidn`` declares the
 type of but does not wrap: the setter is declared on pyoidn's cffi interface (``_progress_setter``).

@@ -2,8 +2,8 @@
 
 A render allocates and frees gigabytes of numpy arrays, many too small for their own mapping, so glibc serves them
 from its heap arenas (one per thread that allocated) and keeps them there when they are freed. In a long-lived
-process that heap stays resident: Blender rendering the corridor with ``vbnl`` six times held 3.0 GB afterwards
-(0.4 GB before the first render), and 0.5 GB when the heap was handed back after each render."""
+process that heap stays resident: Blender rendering the corridor with ``vbnl`` six times holds 3.0 GB afterwards
+(0.4 GB before the first render) when the heap is kept, and 0.5 GB when it is handed back after each render."""
 from __future__ import annotations
 
 import ctypes
@@ -36,7 +36,7 @@ TRIM_THRESHOLD = 2 * MMAP_THRESHOLD  # what glibc's dynamic threshold sets besid
 def heap_for_renders() -> bool:
     """Undo a small fixed trim threshold (``MALLOC_TRIM_THRESHOLD_`` in the environment, which Dask's nanny sets to
     64 KiB for its workers): with it glibc maps every array of 128 KiB or more afresh and returns it on free, and the
-    page faults made a bake of ``seq_moving_object`` (24 frames at 128 px, ir with 16,384 VPLs) take 58.5 s instead
+    page faults make a bake of ``seq_moving_object`` (24 frames at 128 px, ir with 16,384 VPLs) take 58.5 s instead
     of 33 s. Setting the variable also stops glibc's dynamic thresholds, so this sets them where those end up for
     large arrays. Returns whether it changed anything (glibc only, and only when the variable is set)."""
     if "MALLOC_TRIM_THRESHOLD_" not in os.environ:

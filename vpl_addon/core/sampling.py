@@ -275,7 +275,7 @@ class PathNumbers:
 
     A generator's numbers depend on every draw before them: one path more or fewer at a vertex (a Russian roulette
     decision that a 0.1 % change of a light's intensity flips) gives every later vertex of the block other numbers,
-    and a render of a slightly changed scene a new draw of its noise (a frame of a sequence; bench/README.md). Keyed
+    and a render of a slightly changed scene a new draw of its noise (a frame of a sequence). Keyed
     numbers keep the noise of every other path where it was, as Cycles' do (a pixel's numbers are a hash of the
     pixel, the sample and the dimension).
 

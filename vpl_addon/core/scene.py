@@ -338,7 +338,7 @@ class Scene:
     @cached_property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """Axis-aligned box of the geometry (a unit box at the origin for an empty scene). Kept once made: every
-        block's gather asks for it, and the living room's 141,365 triangles took 42 ms a time (a scene's triangles
+        block's gather asks for it, and the living room's 141,365 triangles take 42 ms a time (a scene's triangles
         are never changed in place; a changed scene is a new ``Scene``, ``dataclasses.replace``)."""
         if len(self.triangles) == 0:
             return -np.ones(3), np.ones(3)

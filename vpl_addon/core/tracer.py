@@ -12,7 +12,7 @@ or glass is kept with the probability of its opacity; a ray that goes on is trac
 surface, at most ``CUTOUT_LAYERS`` times (Cycles' default Transparent bounce limit is 8; the last layer found then
 stops the ray). An occlusion query asks two BVHs of the scene's parts first (``_parts``): a ray that a triangle
 without holes blocks is blocked whatever the cut-outs let through, and of the rest, only those a cut-out triangle
-blocks are traced again, closest hit by closest hit, through the whole scene. (With one BVH every blocked ray was
+blocks are traced again, closest hit by closest hit, through the whole scene. (With one BVH every blocked ray would be
 traced again: 99.7 % of the living room's shadow rays toward its sky, whose windows are glass.) Rays asked to
 (``tinted``) carry the colour of the coloured glass they cross (``Hits.tint``).
 """

@@ -5,7 +5,7 @@ over masked pixels and channels; relMSE the squared analogue; RMSE after Reinhar
 mean ratio = mean(I) / mean(I_ref). ``rmae4`` is rMAE after both images are averaged over 4 x 4 pixel blocks (the
 blocks the mask holds whole): a reference's own noise there is about a quarter of its per-pixel noise, while a
 method's bias, and the blotches a denoiser leaves, stay (the corridor's 16384-spp reference differs from itself
-denoised by rMAE 0.066 per pixel, 0.014 in blocks: bench/README.md). ``clean_rrmse`` takes that noise out
+denoised by rMAE 0.066 per pixel, 0.014 in blocks). ``clean_rrmse`` takes that noise out
 altogether, given a second reference (a twin) with noise of its own; ``noise_floor`` says, from the same twin, what
 the truth itself scores in rMAE, under which no image's figure goes. The mask keeps pixels whose reference
 alpha is at least 0.999: silhouette pixels have random coverage and would dominate the error of a pass that
@@ -108,7 +108,7 @@ def clean_rrmse(image: np.ndarray, reference: np.ndarray, twin: np.ndarray, mask
 
     estimates the error against the truth T without bias in the squared error (RGB only, over ``mask``). Per-pixel
     metrics against one reference (rMAE) keep its noise in every figure: the corridor's 16384-spp reference
-    differs from a second one by rMAE 0.095, so a perfect picture scores about 0.067 there (bench/README.md)."""
+    differs from a second one by rMAE 0.095, so a perfect picture scores about 0.067 there."""
     img, a, b = _rgb(image, reference, twin)
     img, a, b = _inside(np.ones(a.shape[:2], bool) if mask is None else mask, img, a, b)
     mean = 0.5 * (a + b)

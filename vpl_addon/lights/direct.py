@@ -11,12 +11,12 @@ so a pixel's shadow rays cover the light evenly instead of clumping as independe
 
 The metallic lobe's light combines the light samples with as many samples of the lobe itself by multiple
 importance sampling (Veach and Guibas 1995, the power heuristic), per light: a sharp lobe inside a light's solid
-angle is found by its own samples, where light samples alone gave f cos / pdf of 10^4 and more (single samples
-that the filter spread into squares). Lights that cannot evaluate their pdf for a given direction (``Light.mis``
+angle is found by its own samples, where light samples alone give f cos / pdf of 10^4 and more (single samples
+that the filter spreads into squares). Lights that cannot evaluate their pdf for a given direction (``Light.mis``
 None: points, spots, suns) keep light samples alone, and so does a rough coat (``Surface.rough_coat``), a lobe nearly
-as broad as the diffuse one: its lobe samples and the light pdfs that weighed against them were two thirds of the direct
-light's time on walls of the Principled BSDF's default Specular (the imported USD Cornell box), for a few per cent of
-the light.
+as broad as the diffuse one: its lobe samples and the light pdfs that weigh against them by MIS would take two thirds
+of the direct light's time on walls of the Principled BSDF's default Specular (the imported USD Cornell box), for a
+few per cent of the light.
 """
 from __future__ import annotations
 

@@ -64,9 +64,9 @@ class EmissiveTriangles(Light):
     def _sample_incident(self, p, n, u1, u2):
         """A triangle chosen by power (``u1`` within the chosen CDF bin reused for the point), then a direction
         uniform in the solid angle it subtends at p: L x solid angle / p(triangle), no 1/d^2 spikes beside a
-        panel (``_triangle_samples``). Sampled by area instead, a point on a wall 1 cm behind an emissive panel got
-        the right mean from a heavy tail (a render's samples had a median of 0.56x the mean), which the denoiser
-        took for noise: a dark rim around the panel."""
+        panel (``_triangle_samples``). Sampled by area instead, a point on a wall 1 cm behind an emissive panel gets
+        the right mean from a heavy tail (a render's samples have a median of 0.56x the mean), which the denoiser
+        takes for noise: a dark rim around the panel."""
         idx = sample_cdf(self.cdf, u1)
         lo = np.where(idx > 0, self.cdf[np.maximum(idx - 1, 0)], 0.0)
         w = np.maximum(self.cdf[idx] - lo, 1e-300)
@@ -114,9 +114,9 @@ class EmissiveTriangles(Light):
 def _to_plane(p, w, origin, t, corner, normal):
     """(N,) the distance from p along w to the plane of the triangle (a corner and its unit normal) the ray from the
     pushed ``origin`` met at ``t``, in double precision: p + w dist lies on the light's surface, where a shadow ray
-    stops off it (``Tracer.visible_through``'s target normal). Taken as t from the pushed origin, it lay off the
-    surface by the push (extent / 65536), farther than the shadow ray's margin: a glowing sphere hid itself from
-    the rays that grazed it. A ray along the plane keeps the pushed origin's distance."""
+    stops off it (``Tracer.visible_through``'s target normal). Taken as t from the pushed origin, it would lie off
+    the surface by the push (extent / 65536), farther than the shadow ray's margin: a glowing sphere would hide
+    itself from the rays that graze it. A ray along the plane keeps the pushed origin's distance."""
     across = np.einsum("ij,ij->i", w, normal)
     height = np.einsum("ij,ij->i", corner - p, normal)
     flat = np.abs(across) < 1e-9

@@ -29,7 +29,7 @@ class EnvironmentLight(Light):
     name = "world"
 
     def __init__(self, image, rotation=np.eye(3)):
-        image = np.asarray(image)  # float32 as the scene holds it (a float64 copy of a 2K map took 48 MB), or float64
+        image = np.asarray(image)  # float32 as the scene holds it (a float64 copy of a 2K map takes 48 MB), or float64
         image = image.astype(np.float32 if image.dtype == np.float32 else np.float64, copy=False)
         self.image = np.maximum(np.nan_to_num(image, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
         self.rotation = np.asarray(rotation, np.float64)
@@ -84,7 +84,7 @@ class EnvironmentLight(Light):
     def directions(self, p, n, u1, u2, owner=None):
         """The directions drawn, and their weights L / pdf looked up only for the rows asked: in a room lit through
         its windows 99.7 % of the map's samples are blocked (the living room), and a lookup (0.33 us, the map
-        being cold in cache) cost more than the sample's shadow ray."""
+        being cold in cache) costs more than the sample's shadow ray."""
         wi = self.sample(u1, u2)
 
         def weigh(rows):
@@ -126,7 +126,7 @@ def _reach(lum):
     padded = np.concatenate([padded[:, -1:], padded, padded[:, :1]], axis=1)
     h, w = lum.shape
     bound = padded[1:h + 1, 1:w + 1].copy()
-    for i in range(3):  # one running maximum: a stack of the nine shifts took 9 maps (144 MB for 2048 x 1024)
+    for i in range(3):  # one running maximum: a stack of the nine shifts would take 9 maps (144 MB for 2048 x 1024)
         for j in range(3):
             np.maximum(bound, padded[i:i + h, j:j + w], out=bound)
     return 0.5 * mean / max(mean.sum(), 1e-300) + 0.5 * bound / max(bound.sum(), 1e-300)
@@ -146,7 +146,7 @@ def _sample(row_cdf, col_cdf, guide, rotation, u1, u2, wi):
 
     The column is searched only between the row's two ``guide`` entries around u (a guide table, Chen and Asau
     1974): the same bin as a search of the whole row, in one or two cache lines instead of eleven scattered ones (a
-    random row of a 2K map is cold, and the search was most of a world sample's time)."""
+    random row of a 2K map is cold, and a search of the whole row takes most of a world sample's time)."""
     height, steps = len(row_cdf), guide.shape[1] - 1
     width = len(col_cdf) // height
     for i in range(len(u1)):

@@ -11,7 +11,7 @@ reaches x), and theta'_i is the angle between n and the direction to the centre 
 horizon: a diffuse surface reflects nothing from there). For a point light (a leaf of radius 0) it is exactly the
 light it brings, I cos(theta_i) / d^2, shadows aside; a planar light's leaf (an area light) gives nothing behind its
 plane, where the sphere's bound would (cornell_textured's ceiling, lit only by an emitter beside the panel above it:
-Diffuse Direct rMAE 0.160 with the sphere's bound, 0.047 with the plane, 0.073 before the tree). The angles are
+Diffuse Direct rMAE 0.160 with the sphere's bound, 0.047 with the plane, 0.073 choosing by power / d^2). The angles are
 handled by their cosines and sines only.
 
 A light sample first chooses among the nodes of a *cut* of the tree (``CUT`` nodes, every leaf when there are no
@@ -20,9 +20,10 @@ its samples (the cut of Walter et al.'s Lightcuts, 2005, fixed here rather than 
 the cut it walks down to one light, at each node choosing a child in proportion to the child's importance (Conty
 Estevez and Kulla, sec. 5.1), every sample of a batch taking one step per tree level. A light's probability is the
 product of the choices on its path. On the stress suite's 200 point lights in a room, one light sample's relative
-standard deviation (unshadowed, mean over the pixels) was 0.58 walking from the root, 0.21 below a cut of 64 nodes
-and 0.011 choosing among every leaf, against 0.37 for the sampler before (power / d^2, no normal, 10 % uniform):
-the bounds of a node near x say little about which of its lights is near, at a leaf the importance is exact.
+standard deviation (unshadowed, mean over the pixels) is 0.58 walking from the root, 0.21 below a cut of 64 nodes
+and 0.011 choosing among every leaf, against 0.37 choosing by power / d^2 (no normal, 10 % uniform: the sampler
+``bench/many_lights.py`` measures the tree against): the bounds of a node near x say little about which of its lights
+is near, at a leaf the importance is exact.
 
 With more lights than the cut holds, the tree is built top down, each node split where the surface area orientation
 heuristic (sec. 4.4) is lowest, a node of a few lights in halves (with fewer, no sample walks the tree: halves).
@@ -205,7 +206,8 @@ class LightTree:
             emit = np.where(sin_a < 0.0, 1.0, _cos_less(cos_t, _sin(cos_t), cos_a, sin_a))  # past pi: all
             value = value * np.where(inside | (emit >= rows[..., 10]), emit, 0.0)
             # a planar light's leaf: nothing behind its plane, which its sphere's cone bound would let through
-            # (the ceiling above a downward panel was given the panel, and an emitter beside it the rest)
+            # (with that bound a ceiling above a downward panel sends its samples to the panel, and only the rest to
+            # an emitter beside it)
             value = value * ((rows[..., 11] == 0.0) | (along > 0.0))
         return value / np.maximum(d2, r2)
 

@@ -149,9 +149,9 @@ def _blend(scene, mat, prim, bary, ns, inputs, layer, tint, f0, eta):
     material's own row's + f the other's (the normal made unit again), which is exact for the diffuse lobe; the
     glossy lobe's shape (roughness, Specular Tint, layer F0 and IOR) drawn whole from one side, the other's with
     probability f by a number hashed from the point (``_hashed``), so that two lobes of different roughness
-    are their sum in expectation, as Cycles sums them (their blend was up to 50 % bright on a highlight's flank;
-    bench/README.md, twenty-seventh session). ``layer``: every material's (Specular Tint, layer F0, IOR), whose
-    rows the points ``tint``, ``f0`` and ``eta`` take."""
+    are their sum in expectation, as Cycles sums them (one lobe of the blended roughness is up to 50 % brighter on
+    a highlight's flank than their sum). ``layer``: every material's (Specular Tint, layer F0, IOR), whose rows the
+    points ``tint``, ``f0`` and ``eta`` take."""
     m = scene.materials
     other = m.mix_other[mat]
     rows = np.nonzero(other >= 0)[0]

@@ -15,12 +15,12 @@ from ..materials.microfacet import GlossyLobe, glossy_color
 from ..materials.surface import Surface, bump_factor
 
 # next-event samples at a metallic vertex a camera path extends to: light reaching a diffuse point over metal
-# (a caustic) comes only from them, and a sharp lobe catches a light rarely. 8 until the thirty-eighth session;
-# denoised, 4 leaves the error as it was (3 seeds, 64 samples: living room and veach_bidir the same to 0.0001,
-# cornell_metal +0.3 %, cornell_pbr +0.4 %) for 6-11 % less time (bench/README.md)
+# (a caustic) comes only from them, and a sharp lobe catches a light rarely. Denoised, 4 give the error of 8 (3
+# seeds, 64 samples: living room and veach_bidir the same to 0.0001, cornell_metal +0.3 %, cornell_pbr +0.4 %) in
+# 6-11 % less time
 GLOSSY_LIGHT_SAMPLES = 4
-# at a rough coat's vertex (``Surface.rough_coat``), whose broad lobe catches lights as a diffuse one does: the hotel
-# room's gather spent 22 % of its time in 8 samples there
+# at a rough coat's vertex (``Surface.rough_coat``), whose broad lobe catches lights as a diffuse one does: 8 samples
+# there take 22 % of the hotel room's gather time
 COAT_LIGHT_SAMPLES = 2
 
 

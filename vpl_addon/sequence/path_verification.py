@@ -86,8 +86,8 @@ def _crossing(origin, direction, length, lo, hi):
 
 class PathRows:
     """The rows of a table of path vertices or segments by their (path, bounce), sorted once and searched as often
-    as asked: ``_verify`` looks up every bounce's segments in tables whose keys do not change while it runs (sorting
-    about 600,000 keys a lookup had been a quarter of a baked frame's time, bench/README.md)."""
+    as asked: ``_verify`` looks up every bounce's segments in tables whose keys do not change while it runs (sorted
+    again for every lookup, about 600,000 keys take a quarter of a baked frame's time)."""
 
     def __init__(self, path: np.ndarray, bounce: np.ndarray):
         keys = _key(path, bounce)

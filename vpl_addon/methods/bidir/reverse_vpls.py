@@ -10,7 +10,7 @@ One of the M terms is the path's own x_1 (the others are independent): with it t
 given the M points, had x_2 come from any one of them at random, so 1 / p is an unbiased weight (the mixture
 density of multiple importance sampling with the balance heuristic) and never infinite. The own term needs no
 shadow ray: the ray that found x_2 joins the two (a shadow ray there can miss its end by the offsets and leave a
-weight of 1e300, which then took every draw of the resampling).
+weight of 1e300, which then takes every draw of the resampling).
 The VPL's outgoing radiance is diffuse: albedo x (direct light + light of the standard VPLs), the latter by shadow
 rays to a random subset of the standard VPLs (the bidirectional estimate the paper describes), both also as they
 arrive over metal (``paths.over_metal``: a camera path continued from x_2 through metallic surfaces)."""

@@ -15,15 +15,15 @@ the floor) averages the floor on one side only, so a mean alone carries the ligh
 corner: the first-order boundary bias of kernel estimates, which a local linear fit removes (Jones 1993, "Simple
 boundary correction for kernel density estimation"; Fan and Gijbels 1996, ch. 3). The correction integrates to
 zero over the light's share, so each light keeps its power (about the share's centre as the catchment measures it,
-whose error is independent of the slopes: the correction adds nothing on average). Measured in bench/README.md
-("thirty-third session").
+whose error is independent of the slopes: the correction adds nothing on average). On a floor lit as a ramp beside a
+thin wall (``tests/test_vbnl.py``) the means alone put the wall's foot 6 % too bright, the slopes 2 % too dark.
 
-Deviation from eq. 3, measured in bench/README.md: the paper sums I_j / (pi r_j^2) over the covering lights with
+Deviation from eq. 3: the paper sums I_j / (pi r_j^2) over the covering lights with
 the indicator of the sphere; the number of covering lights at a point varies by about +-50 % around its mean of
 2 pi / sqrt(3) (alpha = 2), which is noise in every gather sample. Weighting by the shares instead gives a smooth
 reconstruction with the same support, the same sampling (eq. 4-5) and the same total power, and the catchment
 keeps edges and corners unbiased where lights have less surface around them (a density estimate from the
-candidates' neighbours was 3-5 % off in the Cornell box, one way or the other depending on whether neighbours
+candidates' neighbours is 3-5 % off in the Cornell box, one way or the other depending on whether neighbours
 across a corner counted). Lights hold
 diffusely reflected light only and keep a single value each: the paper's directional emission profiles (16x16
 octahedral maps) for lights on glossy surfaces are replaced by extending camera paths through metallic lobes
@@ -31,8 +31,8 @@ octahedral maps) for lights on glossy surfaces are replaced by extending camera 
 
 A light's support also stops where something stands on its plane (``reach``, per sector of its disc, found by
 ``methods.vbnl.open_reach``): a wall on the floor, a door leaf, a cabinet's side. Without it the floor of the next room
-lay in a floor light's sphere, on its plane and facing its way: the light took that room's photons and lent it its
-light (5-10 % of the living room's photon light crossed such an occluder). Nor does it hold surface under a lid:
+lies in a floor light's sphere, on its plane and facing its way: the light takes that room's photons and lends it its
+light (5-10 % of the living room's photon light crosses such an occluder). Nor does it hold surface under a lid:
 points with something straight over them (along their normal) nearer than ``LID`` r_j, such as the ceiling over a
 glowing panel hung just below it, which the panel's back lights and the room does not see. Photon splitting and the
 catchment pass each point's height under its lid (``lid_heights``; none for the gather's points).
@@ -54,11 +54,12 @@ from .morton import morton_codes, radix_tree
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
 SLAB = 0.005  # a light covers points within this many radii of its tangent plane: no share across thin walls
-# (0.1 still let rugs, sills and frames a few centimetres off a floor or wall share lights: with the same constant
-# world in both renderers the living room was 1.27x Cycles' mean at 0.1, 1.23x at 0.05, 1.08x at 0.02; against a
-# 16384-spp reference its Diffuse Indirect x colour was 1.089x at 0.02, 1.050x at 0.005, and its denoised picture
-# at 64 pairs 0.0907 -> 0.0786 for 32 % more time (more of it extends its paths); the Cornell boxes, the sphere of
-# cornell_textured and the other converted scenes the same or up to 3 % better: bench/README.md)
+# (thicker slabs let rugs, sills and frames a few centimetres off a floor or wall share lights: with the same
+# constant world in both renderers the living room is 1.27x Cycles' mean at 0.1, 1.23x at 0.05, 1.08x at 0.02;
+# against a 16384-spp reference its Diffuse Indirect x colour is 1.089x at 0.02, 1.050x at 0.005, and its denoised
+# picture at 64 pairs 0.0786 at 0.005 against 0.0907 at 0.02, for 32 % more time (more of it extends its paths);
+# at 0.005 the Cornell boxes, the sphere of cornell_textured and the other converted scenes are the same or up to
+# 3 % better)
 CELL = 1.0  # the grid's cell, in median light radii (about 10 lights listed per cell at alpha = 2)
 LISTED = 64  # at most this many cell entries per light on average: the cell grows for lights of very unequal size
 SORTED_FROM = 32768  # lights from which photons are split a million at a time in the order of grid blocks
@@ -69,7 +70,7 @@ BLOCK = 2  # a block is 2^BLOCK cells a side
 SECTORS = 16  # a light's reach (``PhotonLights.reach``) is kept per sector of its disc
 LID = 0.25  # a point with something over it nearer than this many radii of a light is not the light's: light trapped
 # there (a glowing panel 1 mm or 1 cm under a ceiling: 63 % and 59 % of the photons' light in two imported Cornell
-# boxes, whose Diffuse Indirect came out 2.2 and 1.13 times Cycles') does not reach the room the light lights
+# boxes, whose Diffuse Indirect is 2.2 and 1.13 times Cycles' without the test) does not reach the room it lights
 SLOPE_CAP = 0.7  # at most this relative change of a light's radiance over its radius: 1 + gamma . (y - c) stays
 # positive over the disc (|y - c| < 1.4 r where the share's centre is off the light's), so no clamp adds light
 HASH = (73856093, 19349663, 83492791)  # Teschner et al. 2003, spatial hashing of a cell's integer coordinates
@@ -233,8 +234,8 @@ def fit_slopes(position, normal, radius, reach, flat, light, halves) -> np.ndarr
     part or over an edge the photons' support is not the disc's.
 
     Fitted over the share alone, a region a light spacing across, with moments from the catchment's points, the
-    slopes of lights cut by a wall were mostly the catchment's error in the share's centre (|gamma| r 0.4-0.7 on
-    an evenly lit floor), and that error, correlated with the slopes, added 0.2-0.3 % to the Cornell boxes'
+    slopes of lights cut by a wall would be mostly the catchment's error in the share's centre (|gamma| r 0.4-0.7
+    on an evenly lit floor), and that error, correlated with the slopes, would add 0.2-0.3 % to the Cornell boxes'
     Diffuse Indirect: the closed form has neither.
 
     ``halves`` (N, 2, 4): per light, the kernel-weighted luminance and its first moment (sum k_j I_p p) of the

@@ -8,8 +8,8 @@ lights, combined by multiple importance sampling with the power heuristic (eq. 5
   its disc (the light's support: ``photon_lights``), drawn with the profile of its share; the ray's hit y adds
   s_j(y) L_j, zero outside the support (s_j is the light's share of y, L_j its radiance). Deviation: Li et al. draw
   the direction uniform in the cone that holds the light's sphere, p_j(w) = P_j / sum P / (2 pi (1 - cos theta_j));
-  most of that cone looks past the thin disc (36 % of the lit light samples met it in cornell_area, 66 % toward the
-  disc), and the disc's samples cut the gather's noise by 11 % there at the same time (bench/README.md);
+  most of that cone looks past the thin disc (36 % of the lit light samples meet it in cornell_area, 66 % toward the
+  disc), and the disc's samples cut the gather's noise by 11 % there at the same time;
 - BSDF: a direction w_r from the point's lobe (cosine-weighted for the diffuse one) traced to y_r; every light
   whose sphere holds y_r adds s_i(y_r) L_i.
 
@@ -55,8 +55,8 @@ TREE_SLACK = 4  # numbers for the light tree's levels past log2 N (lights on a s
 @dataclass
 class SamplingSettings:
     # sample pairs (BSDF + light) per pixel; 0: one per camera sample (``gather_samples``), so the render's one
-    # Samples setting raises the gather with the direct light and the anti-aliasing, which measured better at equal
-    # time than more pairs per camera sample (bench/README.md, "One knob")
+    # Samples setting raises the gather with the direct light and the anti-aliasing, which ``bench/sample_counts.py``
+    # (``--pairs``) measures better at equal time than more pairs per camera sample
     samples: int = option(0, prop="vbnl_samples", label="Gather Samples", min=0, soft_max=1024,
                           description="Samples per pixel of the VBNL gather (a light sample and a BSDF sample each); "
                                       "0 = one per camera sample, so Samples alone sets the render's quality")
@@ -76,9 +76,10 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
     ``pixel`` (K,), the pixel of each point: the pairs of a pixel (and the vertices their paths extend to) draw
     their numbers from nets it shares (``sampling.PathNumbers``) instead of independent ones, so that a pixel's
     BSDF directions and light points cover their squares evenly: cornell_area's indirect light as rendered at 64
-    pairs, rMAE 0.063 -> 0.035, denoised 0.0157 -> 0.0147 (bench/README.md). The numbers are keyed by the path and
-    its depth, so a path that stops or goes on leaves every other path's numbers as they were: a slightly changed
-    set of lights (the next frame of a sequence) changes the noise only where the light changed."""
+    pairs, rMAE 0.035 against 0.063 with independent numbers, denoised 0.0147 against 0.0157
+    (``bench/sample_counts.py cornell_area --samples 16 --light-samples 2 --pairs 64``). The numbers are keyed by
+    the path and its depth, so a path that stops or goes on leaves every other path's numbers as they were: a
+    slightly changed set of lights (the next frame of a sequence) changes the noise only where the light changed."""
     out = np.zeros((len(surface), 3))
     if len(surface) == 0 or len(lights) == 0 or max_depth <= 0:
         return out
@@ -222,9 +223,9 @@ def _descend(split, left, right, u):
     between a node's old and new split, while an inverted cumulative power moves every boundary past the first
     change, and most draws go to a light further along (elsewhere in space). A light added or removed (lights
     placed again around a moving object) changes the nodes above it, not the rest of the tree, since the tree is
-    split by the codes, not by counts. In the moving light's example a 1 cm move of the lamp changed Diffuse
-    Indirect by 1.0 % with the inverted cumulative power, 0.55 % with the tree, 0.52 % with the choice kept as it
-    was (bench/README.md, "Steady draws")."""
+    split by the codes, not by counts. In the moving light's example a 1 cm move of the lamp changes Diffuse
+    Indirect by 1.0 % with the inverted cumulative power, 0.55 % with the tree, 0.52 % with the choice held at the
+    unmoved lamp's powers."""
     levels = u.shape[0]
     out = np.zeros(u.shape[1], np.int64)
     if len(left) == 0:  # one light
@@ -272,7 +273,7 @@ def _toward_discs(position, drawn, centre, normal, radius, choice, u1, u2):
     within its sphere, within ``SLAB`` radii of its tangent plane) with density (1 - rho^2 / r^2) / (pi r^2 / 2),
     the profile of its share, and the pdf of the direction, P_j / sum P x ``_disc_density`` (0 seen edge-on).
     Li et al. draw a direction uniform in the cone that holds the light's sphere (eq. 4), of which about a third
-    met the surface inside it in the Cornell box: the rest were seen off the disc's plane."""
+    meets the surface inside it in the Cornell box: the rest look past the disc's plane."""
     k = len(drawn)
     w, pdf = np.zeros((k, 3)), np.zeros(k)
     for i in range(k):
@@ -317,9 +318,9 @@ def _add_samples(out, owner, source, weight, drawn, p_light, pdf, toward, w, y, 
     """out[owner] += each hit's estimate; returns (H,) the mean w_v of the lights covering each BSDF sample's hit,
     by their shares (0 where none covers it or for a light sample), whatever light they hold: the lights' part is
     sum_i w_v,i s_i L_i and the extension's (1 - sum_i w_v,i s_i) L, which add up to L where the L_i are right on
-    average. Weighed by the lights' radiance instead, a hit whose lights held no photon (their light of this many
-    bounces scattered over few of them) was extended in full, and the light those lights hold on average was
-    counted twice: Diffuse Indirect 1.22x Cycles' in a room lit through a door left ajar (bench/README.md).
+    average. Weighed by the lights' radiance instead, a hit whose lights hold no photon (their light of this many
+    bounces scattered over few of them) would be extended in full, and the light those lights hold on average
+    counted twice: Diffuse Indirect 1.22x Cycles' in a room lit through a door left ajar.
 
     Hit h came from the vertex x = position[source[h]] (owner, p_light, toward and w are per vertex). A hit of a
     light sample (``drawn`` its light j >= 0, p_light its pdf, ``toward`` its direction, ``weight`` the path's
