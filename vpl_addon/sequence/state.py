@@ -9,8 +9,7 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
   whoever runs the sequence: a bake looks over its frames before the first; an animation render, which cannot look
   ahead, ``learns`` them as they move, and so does a bake, for what its look-ahead missed) and a tracer of it, kept
   from frame to frame: what a method draws from the camera's view is found in it (vbnl's candidates), so that where
-  the view did not change its lights stay where they were while an object moves (bench/README.md, "Candidates of
-  the still scene");
+  the view did not change its lights stay where they were while an object moves;
 * ``place(method, context, settings)`` places the frame's virtual lights with a ``methods.base.Method`` (render
   hands it in). A method that keeps its own state across frames (``smc``; ``ir``, ``bidir`` and ``vbnl`` their light
   paths, ``path_verification``) provides ``start(context, settings) -> state`` (a cold start, including any warm-up,

@@ -39,7 +39,7 @@ class BidirSettings:
     density_paths_coarse: int = 5  # M of eq. 7 while estimating power
     density_paths_fine: int = 50  # M of eq. 7 for the kept reverse VPLs
     # uniform quantity added to the resampling CDF, as a fraction of the mean power. The paper gives no value;
-    # with M = 10 power estimates the error in the Cornell box is lowest when it equals the mean (bench/README.md)
+    # with M = 10 power estimates the error in the Cornell box is lowest when it equals the mean
     cdf_floor: float = 1.0
     light_floor: float = 0.01  # the same for the light-selection CDF
     camera_points: int = 4096  # pool of camera points x_j used by the estimates above

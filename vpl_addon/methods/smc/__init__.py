@@ -76,7 +76,7 @@ class SMCSettings:
     # density among the (unselected, so nearly Poisson) hits and gives it to its nearest VPL of the set as it is now,
     # averaged over the last ``area_frames`` rounds (their hits are kept: 16 bytes a hit, 4 KB a VPL). The
     # replacement heuristic keeps VPLs whose neighbours are far, so eq. 7 overestimates their area: the Cornell box
-    # comes out a third too bright with "knn" (bench/README.md)
+    # comes out a third too bright with "knn"
     area: str = "voronoi"
     area_frames: int = 16
     # k of the hits' kNN areas: k = 1 is unbiased for uniformly random points (E[pi r_1^2] = 1 / density) and the
@@ -221,9 +221,9 @@ def _remember_hits(state: SMCState, s: SMCSettings, covered, motion, extent: flo
 
 def _voronoi_areas(state: SMCState, workers: int) -> np.ndarray:
     """The "voronoi" areas: each remembered hit gives the area it stands for to its nearest VPL of the set as it is
-    now, averaged over the rounds. (A running mean of each round's shares would keep the cells of the VPLs as they
-    were: where VPLs joined, their neighbours' old, larger cells, and the replacements put VPLs where light is
-    strong, so the sum came out 10 % too bright on cornell_area: bench/README.md.)"""
+    now, averaged over the rounds. (A running mean of each round's shares would keep old cells: where VPLs join,
+    their neighbours' larger cells, and the replacements put VPLs where light is strong, so the sum would come out
+    10 % too bright on cornell_area.)"""
     if not len(state) or not state.hits:
         return np.zeros(len(state))
     _, nearest = cKDTree(state.surface.position).query(np.concatenate([p for p, _ in state.hits]), workers=workers)

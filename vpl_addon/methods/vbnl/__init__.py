@@ -21,8 +21,8 @@ In a sequence the photons' light paths are kept from frame to frame and verified
 (``sequence.path_verification``, Moreau et al.); the lights are placed and the photons split among them again in every
 frame in which something moved (the camera included), the candidates and catchments with the camera's numbers
 (``MethodContext.camera_rng``, the same in every frame), so that where the view did not change the lights land where
-they were and only their light changes (one of the three changes that made the denoised moving light's bake flicker
-2.5 times less, bench/README.md "Steady draws"). The candidates are found in the scene without the objects that move
+they were and only their light changes (``bench/sequence_temporal.py --picture`` measures the flicker this
+steadies). The candidates are found in the scene without the objects that move
 in the sequence (``view_candidates``), so an object moving through the view leaves the lights where they were.
 """
 from __future__ import annotations
@@ -96,7 +96,7 @@ class VBNLSettings:
         photons of its catchment, 64 a light at 2^18 paths and 4096 lights, so each light's intensity carries a few
         per cent of noise and the image a blotch per light, which more camera samples and the denoiser leave; four
         times the paths take a fifth off cornell_sun's error in 4 x 4 blocks at 64 samples and a tenth off
-        cornell_area's (bench/README.md, "Thirty-first session"). Tied to the camera samples, they cost the same share
+        cornell_area's (``bench/block_error.py``). Tied to the camera samples, they cost the same share
         of the render at any size, and leave renders of up to 16 samples at 256 x 256 as they were."""
         return self.photons or int(np.clip(camera_samples // 4, *AUTO_PATHS))
 
@@ -160,8 +160,8 @@ def candidates(scene, tracer, count: int, rng: np.random.Generator, passes: int 
 def view_candidates(context, count: int, seed: int):
     """``candidates`` for a frame: in a sequence, of the scene without the objects that move in it
     (``MethodContext.still``), so that an object moving through the view does not move lights all over the room
-    (14 % of the candidates changed each frame of the moving block, and the lights with them: its bake flickered 1.5
-    times as much as Cycles + OIDN's frames; bench/README.md, "Candidates of the still scene"). The light those
+    (drawn from the whole scene, 14 % of the candidates change each frame of the moving block, and the lights with
+    them: ``bench/sequence_temporal.py``). The light those
     objects reflect is found by extending the camera paths that meet them, which no light covers (eq. 6-9). A
     still scene in which fewer than half the candidates are found (a camera that sees mostly what moves) gives way
     to the whole scene."""
@@ -211,8 +211,8 @@ def open_reach(position, normal, radius, tracer) -> np.ndarray:
     ``LIFT`` r above it, at most r. A wall standing on a floor, a door leaf, a sofa's side cut a floor light's
     disc where they stand, so the light neither takes the photons of the floor behind them (another room, the
     patch of sun under a table) nor lends its light there: photon splitting, the catchment and the gather all test
-    it (``photon_lights._covering``). Without it, 5-10 % of the living room's photon light reached its lights across
-    such an occluder (bench/README.md)."""
+    it (``photon_lights._covering``). Without it, 5-10 % of the living room's photon light would reach its lights
+    across such an occluder."""
     count = len(radius)
     if count == 0:
         return np.zeros((0, SECTORS))
