@@ -244,6 +244,13 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m vpl_addon",
                                 description="VPL GI: indirect light with virtual lights, judged against Cycles.")
     sub = p.add_subparsers(dest="command", required=True)
+    for add in (_render_parser, _bake_parser, _reference_parser, _compare_parser, _bench_parser, _scenes_parser):
+        add(sub)
+    return p
+
+
+def _render_parser(sub) -> None:
+    """``render``: one frame to a multilayer EXR."""
     r = sub.add_parser("render", help="render a .blend with the VPL GI engine to a multilayer EXR")
     r.add_argument("scene", help="the .blend file")
     r.add_argument("-o", "--output", required=True, help="multilayer EXR to write")
@@ -251,6 +258,10 @@ def parser() -> argparse.ArgumentParser:
     render_flags(r)
     r.add_argument("--overwrite", action="store_true", help="replace OUTPUT if it exists")
     r.set_defaults(run=cmd_render)
+
+
+def _bake_parser(sub) -> None:
+    """``bake``: a frame range, here or on a Dask farm."""
     bk = sub.add_parser("bake", help="render a frame range to one multilayer EXR per frame, carrying each "
                                      "method's state from frame to frame (resumable)")
     bk.add_argument("scene", help="the .blend file")
@@ -270,6 +281,10 @@ def parser() -> argparse.ArgumentParser:
     bk.add_argument("--chunk-size", type=int, metavar="FRAMES",
                     help="frames per chunk with --workers or --scheduler (default 6)")
     bk.set_defaults(run=cmd_bake)
+
+
+def _reference_parser(sub) -> None:
+    """``reference``: a Cycles reference."""
     ref = sub.add_parser("reference", help="render the Cycles reference of a .blend (cached by scene hash)")
     ref.add_argument("scene")
     ref.add_argument("-o", "--output", required=True)
@@ -284,6 +299,10 @@ def parser() -> argparse.ArgumentParser:
                      help="where converged references are kept by hash")
     ref.add_argument("--overwrite", action="store_true")
     ref.set_defaults(run=cmd_reference)
+
+
+def _compare_parser(sub) -> None:
+    """``compare``: errors against a reference."""
     c = sub.add_parser("compare", help="error of every common pass against a reference, as JSON; for two folders "
                                        "of frame_NNNN.exr, |E| and |E'| of the sequence (Hedman et al.)")
     c.add_argument("image", help="an EXR, or a folder of frames (a bake)")
@@ -291,6 +310,10 @@ def parser() -> argparse.ArgumentParser:
     c.add_argument("--heatmap", help="PNG of the per-pixel relative error")
     c.add_argument("--passes", help="comma-separated pass names (default: all in common)")
     c.set_defaults(run=cmd_compare)
+
+
+def _bench_parser(sub) -> None:
+    """``bench``: from ``bench/command.py`` where the repository's bench/ is present."""
     bench = _optional_command("bench.command")
     if bench is None:
         b = sub.add_parser("bench", help="time against error (from a clone of the repository)")
@@ -298,6 +321,10 @@ def parser() -> argparse.ArgumentParser:
         b.set_defaults(run=_bench_missing)
     else:
         bench.add_parser(sub)
+
+
+def _scenes_parser(sub) -> None:
+    """``scenes``: the public scenes converted to .blend."""
     sc = sub.add_parser("scenes", help="convert the public scenes (Mitsuba XML, Cornell measured data, glTF) to .blend")
     sc.add_argument("names", nargs="*", help="scenes to convert (default: all)")
     sc.add_argument("--source", default=os.path.join("..", "shared", "scenes"),
@@ -306,7 +333,6 @@ def parser() -> argparse.ArgumentParser:
     sc.add_argument("--width", type=int, default=256, help="image width in pixels (default 256)")
     sc.add_argument("--force", action="store_true", help="rewrite files even if their fingerprint is current")
     sc.set_defaults(run=cmd_scenes)
-    return p
 
 
 def _optional_command(name: str):

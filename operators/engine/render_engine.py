@@ -151,12 +151,38 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             trim_heap()
 
     def _render(self, depsgraph):
+        """One frame: the scene extracted, its settings read, rendered, and the passes handed to Blender; every
+        failure is one report, never a traceback."""
         LAST_REPORTS.clear()
         LAST_STATS.clear()
-        scene = depsgraph.scene
-        view_layer = depsgraph.view_layer
+        scene, view_layer = depsgraph.scene, depsgraph.view_layer
         t0 = time.perf_counter()
+        built = self._extracted(depsgraph)
+        if built is None:
+            return
+        t_extract = time.perf_counter() - t0
+        passes = requested_passes(view_layer, scene)
+        unwritten = unwritten_passes(view_layer)
+        if unwritten:
+            self._report("WARNING", f"view layer {view_layer.name!r}: VPL GI does not write these passes: "
+                                    f"{', '.join(unwritten)}")
+        settings = scene.vpl_gi.render_settings(passes)
+        sequence, settings.placement_seed = active_sequence(scene, settings, self.is_animation)  # bake, blender -a
+        bands = []
+        result = self._rendered(built, settings, sequence, view_layer.name, bands)
+        if result is None:
+            return
+        if sequence is not None:
+            FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
+                              "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds,
+                              "animated": sequence.animated})
+        LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
+                          width=built.camera.width, height=built.camera.height, samples=settings.samples,
+                          method=settings.method, info=result.info, bands_shown=len(bands))
+        self._write(view_layer.name, result.passes, _cryptomatte_metadata(view_layer.name, passes, built))
 
+    def _extracted(self, depsgraph):
+        """The engine's scene of ``depsgraph`` (its warnings reported), or None after reporting why not."""
         def told(text):
             self.update_stats("VPL GI", text)
             return not self.test_break()
@@ -165,35 +191,29 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             built, warnings = extract(depsgraph, told)
         except ExtractionError as err:
             self._report("ERROR", str(err))
-            return
+            return None
         except Cancelled:
             self._report("INFO", "render cancelled")
-            return
+            return None
         except Exception as err:  # a bug: one line in the UI and on the command line, never a traceback
             self._report("ERROR", _one_line(f"scene extraction failed ({type(err).__name__}: {err}); please report"))
-            return
-        t_extract = time.perf_counter() - t0
+            return None
         for warning in warnings:
             self._report("WARNING", warning)
-        passes = requested_passes(view_layer, scene)
-        unwritten = unwritten_passes(view_layer)
-        if unwritten:
-            self._report("WARNING", f"view layer {view_layer.name!r}: VPL GI does not write these passes: "
-                                    f"{', '.join(unwritten)}")
-        settings = scene.vpl_gi.render_settings(passes)
-        sequence, settings.placement_seed = active_sequence(scene, settings, self.is_animation)  # bake, blender -a
+        return built
 
+    def _rendered(self, built, settings, sequence, layer_name: str, bands: list[int]):
+        """The engine's render of ``built`` with its progress, ESC and finished bands shown as they come (each
+        band's row count appended to ``bands``), its warnings reported; None after reporting why not."""
         def progress(fraction, text):
             self.update_progress(fraction)
             self.update_stats("VPL GI", f"{text} {fraction * 100:.0f}%")
             return not self.test_break()
 
-        bands = []
-
         def shown(row, band):
             """A band of finished rows on screen at once, as Cycles shows its tiles (Blender's rows go up)."""
             rows, width = band.shape[:2]
-            tile = self.begin_result(0, built.camera.pixel_region[3] - row - rows, width, rows, layer=view_layer.name)
+            tile = self.begin_result(0, built.camera.pixel_region[3] - row - rows, width, rows, layer=layer_name)
             tile.layers[0].passes.find_by_name(P.COMBINED, "").rect.foreach_set(
                 np.ascontiguousarray(band[::-1]).reshape(-1))
             self.end_result(tile)
@@ -203,23 +223,16 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             result = render(built, settings, progress, sequence=sequence, shown=shown)
         except Cancelled:
             self._report("INFO", "render cancelled")
-            return
+            return None
         except BadOutput as err:
             self._report("ERROR", _one_line(f"{err} (a bug; please report it)"))
-            return
+            return None
         except Exception as err:
             self._report("ERROR", _one_line(f"render failed ({type(err).__name__}: {err}); please report"))
-            return
+            return None
         for warning in result.warnings:
             self._report("WARNING", warning)
-        if sequence is not None:
-            FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
-                              "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds,
-                              "animated": sequence.animated})
-        LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
-                          width=built.camera.width, height=built.camera.height, samples=settings.samples,
-                          method=settings.method, info=result.info, bands_shown=len(bands))
-        self._write(view_layer.name, result.passes, _cryptomatte_metadata(view_layer.name, passes, built))
+        return result
 
     def _write(self, layer_name, images, metadata):
         """Hand the images to Blender. With a render border Blender's result is the border's size, cropped or not
