@@ -6,23 +6,15 @@ wall opens onto a corridor that runs along both rooms. Light needs at least two 
 paths from the lamp rarely leave VPLs where the camera looks, while camera paths find them.
 
 The floor plan is a grid of 1 m cells; walls, floor and ceiling are the faces between open and closed cells, all
-facing into the open space. Run from the repository root (it reuses make_examples.py's helpers):
+facing into the open space. Run from the repository root:
 
     .venv/bin/python example_blends/make_corridor.py [--out DIR] [--force]
 """
-import argparse
-import hashlib
-import os
-import sys
-
 import bpy
 from mathutils import Vector
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from make_examples import (add_light, link_object, make_material, make_world, mesh_object,  # noqa: E402
-                           reset_scene, save, stored_fingerprint)
+from scene_building import add_light, link_object, main, make_material, make_world, mesh_object, reset_scene
 
-NAME = "corridor"
 HEIGHT = 2.5
 ROOM_A = [(x, y) for x in range(0, 3) for y in range(0, 3)]
 ROOM_B = [(x, y) for x in range(5, 8) for y in range(0, 3)]
@@ -86,31 +78,8 @@ def build_corridor():
     return scene
 
 
-def fingerprint():
-    """This script, the helpers it imports and Blender's version: what the file depends on."""
-    digest = hashlib.sha256()
-    here = os.path.dirname(os.path.abspath(__file__))
-    for name in ("make_corridor.py", "make_examples.py"):
-        with open(os.path.join(here, name), "rb") as f:
-            digest.update(f.read())
-    digest.update(bpy.app.version_string.encode())
-    return digest.hexdigest()
-
-
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
-    parser.add_argument("--force", action="store_true", help="rewrite the file even if it is up to date")
-    args = parser.parse_args(argv)
-    path = os.path.join(os.path.abspath(args.out), NAME + ".blend")
-    stamp = fingerprint()
-    if not args.force and stored_fingerprint(path) == stamp:
-        print(f"up to date: {path}")
-        return
-    build_corridor()
-    save(path, stamp)
-    print(f"wrote {path} ({os.path.getsize(path)} bytes)")
+SCENES = {"corridor": build_corridor}
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main(SCENES, __doc__)

@@ -2,33 +2,25 @@
 
 Run with the project's bpy-enabled Python (Blender as a Python module):
 
-    .venv/bin/python example_blends/make_examples.py [--out DIR]
+    .venv/bin/python example_blends/make_examples.py [--out DIR] [--force]
 
-Every scene is built deterministically from an empty factory-settings file
-using only ``bpy.data`` / ``bmesh`` (no context-dependent operators except
-``wm.read_factory_settings`` and ``wm.save_as_mainfile``) and saved,
-compressed, as ``<name>.blend`` into ``DIR`` (default: this script's folder).
-Only those files are written.  Blender does not write byte-identical files
-for identical content, so each scene stores a fingerprint (hash of this
-script + Blender version) and an existing file whose fingerprint matches is
-left untouched; ``--force`` rewrites everything.
+Each scene starts from ``scene_building.reset_scene`` (metres, Z up, 256x256, Cycles with 64 samples and 8 bounces)
+and is written by ``scene_building.main`` as ``<name>.blend``. ``make_metal.py``, ``make_pbr.py`` and
+``make_sequences.py`` build their scenes on this file's Cornell box.
 
-Scene conventions: metres, Z up, 256x256 at 100 %, Cycles (64 samples,
-8 bounces), a World whose Background node sets colour and strength, and a
-perspective camera at (0, -3.9, 1) looking along +Y into the open front of
-a 2 m Cornell box spanning x, y in [-1, 1], z in [0, 2].  All materials are
-pure diffuse Principled BSDFs (Roughness 1, Metallic 0, Specular IOR Level 0).
+Scene conventions: a World whose Background node sets colour and strength, and a perspective camera at
+(0, -3.9, 1) looking along +Y into the open front of a 2 m Cornell box spanning x, y in [-1, 1], z in [0, 2].
+All materials are pure diffuse Principled BSDFs (Roughness 1, Metallic 0, Specular IOR Level 0).
 """
 
-import argparse
-import hashlib
 import math
-import os
-import sys
 
 import bpy  # must come first: it makes bmesh/mathutils importable
 import bmesh
 from mathutils import Vector
+
+from scene_building import (add_light, box_geometry, link_object, main, make_material, make_world, mesh_object,
+                            planar_grid, reset_scene)
 
 # Classic Cornell box reflectances (linear RGB).
 WHITE = (0.725, 0.71, 0.68)
@@ -53,73 +45,8 @@ Z = Vector((0.0, 0.0, 1.0))
 
 
 # --------------------------------------------------------------------------
-# Scene / render settings
-# --------------------------------------------------------------------------
-
-def reset_scene():
-    """Start from an empty factory file and configure units and rendering."""
-    bpy.ops.wm.read_factory_settings(use_empty=True)
-    scene = bpy.context.scene
-    scene.unit_settings.system = 'METRIC'
-    scene.unit_settings.length_unit = 'METERS'
-    scene.unit_settings.scale_length = 1.0
-
-    render = scene.render
-    render.engine = 'CYCLES'
-    render.resolution_x = 256
-    render.resolution_y = 256
-    render.resolution_percentage = 100
-
-    cycles = scene.cycles
-    cycles.device = 'CPU'
-    cycles.samples = 64
-    cycles.use_adaptive_sampling = False
-    cycles.use_denoising = False
-    cycles.seed = 0
-    cycles.max_bounces = 8
-    cycles.diffuse_bounces = 8
-    cycles.glossy_bounces = 8
-    cycles.transmission_bounces = 0
-    cycles.volume_bounces = 0
-    cycles.transparent_max_bounces = 8
-    cycles.caustics_reflective = True
-    cycles.caustics_refractive = True
-    return scene
-
-
-def make_world(scene, color, strength):
-    """Create the World with a Background node of the given colour/strength."""
-    world = bpy.data.worlds.new("World")
-    if world.node_tree is None:  # Blender < 5.0 needs use_nodes
-        world.use_nodes = True
-    background = world.node_tree.nodes["Background"]
-    background.inputs["Color"].default_value = (*color, 1.0)
-    background.inputs["Strength"].default_value = strength
-    scene.world = world
-    return world
-
-
-# --------------------------------------------------------------------------
 # Materials
 # --------------------------------------------------------------------------
-
-def make_material(name, base_color, emission_color=None,
-                  emission_strength=0.0):
-    """Pure diffuse Principled BSDF material, optionally emissive."""
-    mat = bpy.data.materials.new(name)
-    if mat.node_tree is None:  # Blender < 5.0 needs use_nodes
-        mat.use_nodes = True
-    bsdf = mat.node_tree.nodes["Principled BSDF"]
-    bsdf.inputs["Base Color"].default_value = (*base_color, 1.0)
-    bsdf.inputs["Roughness"].default_value = 1.0
-    bsdf.inputs["Metallic"].default_value = 0.0
-    bsdf.inputs["Specular IOR Level"].default_value = 0.0
-    if emission_color is not None:
-        bsdf.inputs["Emission Color"].default_value = (*emission_color, 1.0)
-        bsdf.inputs["Emission Strength"].default_value = emission_strength
-    mat.diffuse_color = (*base_color, 1.0)  # viewport colour
-    return mat
-
 
 def make_checker_image(name="Checker"):
     """64x64 two-colour checkerboard, generated and packed into the .blend."""
@@ -159,72 +86,6 @@ def make_base_materials():
         "Red": make_material("Red", RED),
         "Green": make_material("Green", GREEN),
     }
-
-
-# --------------------------------------------------------------------------
-# Mesh helpers
-# --------------------------------------------------------------------------
-
-def link_object(name, data, location=(0.0, 0.0, 0.0),
-                rotation=(0.0, 0.0, 0.0)):
-    """Create an object for ``data`` and link it into the scene collection."""
-    obj = bpy.data.objects.new(name, data)
-    obj.location = location
-    obj.rotation_euler = rotation
-    bpy.context.scene.collection.objects.link(obj)
-    return obj
-
-
-def mesh_object(name, verts, faces, material, uvs=None,
-                location=(0.0, 0.0, 0.0), rotation=(0.0, 0.0, 0.0)):
-    """Build a mesh object from vertex/face lists (optional per-vertex UVs)."""
-    mesh = bpy.data.meshes.new(name)
-    mesh.from_pydata([tuple(v) for v in verts], [], faces)
-    if uvs is not None:
-        uv_layer = mesh.uv_layers.new(name="UVMap")
-        for loop in mesh.loops:
-            uv_layer.data[loop.index].uv = uvs[loop.vertex_index]
-    mesh.validate()
-    mesh.update()
-    mesh.materials.append(material)
-    return link_object(name, mesh, location, rotation)
-
-
-def planar_grid(origin, u_vec, v_vec, u_breaks=(0.0, 1.0),
-                v_breaks=(0.0, 1.0), holes=()):
-    """Vertices, quads and UVs of a planar rectangle cut into a grid.
-
-    Points are ``origin + u * u_vec + v * v_vec`` for u in ``u_breaks`` and
-    v in ``v_breaks`` (fractions 0..1); the face normal is
-    ``u_vec x v_vec``.  ``holes`` lists (i, j) grid cells left out.
-    """
-    origin = Vector(origin)
-    verts, uvs = [], []
-    for v in v_breaks:
-        for u in u_breaks:
-            verts.append(origin + u * Vector(u_vec) + v * Vector(v_vec))
-            uvs.append((u, v))
-    n_u = len(u_breaks)
-    faces = []
-    for j in range(len(v_breaks) - 1):
-        for i in range(n_u - 1):
-            if (i, j) in holes:
-                continue
-            a = j * n_u + i
-            faces.append((a, a + 1, a + 1 + n_u, a + n_u))
-    return verts, faces, uvs
-
-
-def box_geometry(size_x, size_y, size_z):
-    """Closed box centred on the origin in x/y, base at z=0, normals out."""
-    hx, hy = size_x / 2.0, size_y / 2.0
-    verts = [(-hx, -hy, 0.0), (hx, -hy, 0.0), (hx, hy, 0.0), (-hx, hy, 0.0),
-             (-hx, -hy, size_z), (hx, -hy, size_z), (hx, hy, size_z),
-             (-hx, hy, size_z)]
-    faces = [(0, 3, 2, 1), (4, 5, 6, 7),  # bottom, top
-             (0, 1, 5, 4), (1, 2, 6, 5),  # front (-y), right (+x)
-             (2, 3, 7, 6), (3, 0, 4, 7)]  # back (+y), left (-x)
-    return verts, faces
 
 
 # --------------------------------------------------------------------------
@@ -318,18 +179,6 @@ def add_emitter_quad(material, center=(0.6, 0.99, 1.2), size=0.2):
 # Lights and camera
 # --------------------------------------------------------------------------
 
-def add_light(light_type, energy, location, direction=(0.0, 0.0, -1.0),
-              **settings):
-    """Create the scene's single light 'Light' pointing along ``direction``."""
-    light = bpy.data.lights.new("Light", light_type)
-    light.energy = energy
-    light.color = (1.0, 1.0, 1.0)
-    for key, value in settings.items():
-        setattr(light, key, value)
-    rotation = Vector(direction).to_track_quat('-Z', 'Y').to_euler()
-    return link_object("Light", light, location, rotation)
-
-
 def add_area_light(shape='SQUARE'):
     """40 W area light (0.5 m) just below the ceiling, pointing down."""
     return add_light('AREA', 40.0, (0.0, 0.0, 1.98), shape=shape, size=0.5)
@@ -421,66 +270,5 @@ SCENES = {
 }
 
 
-FINGERPRINT_KEY = "vpl_gi_example_fingerprint"
-
-
-def fingerprint(name):
-    """Identify what produced a scene: this script's bytes + Blender version.
-
-    Blender cannot write byte-identical .blend files for identical content
-    (random node identifiers, a time-seeded mesh field, uninitialised
-    padding), so instead of rewriting unchanged scenes the fingerprint is
-    stored in the scene and an existing file is only replaced when it differs.
-    """
-    with open(os.path.abspath(__file__), "rb") as f:
-        source = f.read()
-    digest = hashlib.sha256()
-    for part in (source, bpy.app.version_string.encode(), name.encode()):
-        digest.update(part)
-        digest.update(b"\0")
-    return digest.hexdigest()
-
-
-def stored_fingerprint(filepath):
-    """Fingerprint saved in an existing .blend, or None."""
-    if not os.path.isfile(filepath):
-        return None
-    try:
-        bpy.ops.wm.open_mainfile(filepath=filepath, load_ui=False)
-    except RuntimeError:
-        return None
-    scene = bpy.data.scenes[0] if bpy.data.scenes else None
-    return scene.get(FINGERPRINT_KEY) if scene is not None else None
-
-
-def save(filepath, stamp):
-    """Stamp the scene and save the current file compressed (overwrites)."""
-    bpy.context.scene[FINGERPRINT_KEY] = stamp
-    bpy.context.preferences.filepaths.save_version = 0  # no .blend1 backup
-    bpy.ops.wm.save_as_mainfile(filepath=filepath, compress=True,
-                                check_existing=False, relative_remap=False)
-
-
-def main(argv=None):
-    default_out = os.path.dirname(os.path.abspath(__file__))
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=default_out,
-                        help="output folder (default: %(default)s)")
-    parser.add_argument("--force", action="store_true",
-                        help="rewrite files even if they are up to date")
-    args = parser.parse_args(argv)
-    out_dir = os.path.abspath(args.out)
-    os.makedirs(out_dir, exist_ok=True)
-    for name, build in SCENES.items():
-        path = os.path.join(out_dir, name + ".blend")
-        stamp = fingerprint(name)
-        if not args.force and stored_fingerprint(path) == stamp:
-            print(f"up to date: {path}")
-            continue
-        build()
-        save(path, stamp)
-        print(f"wrote {path} ({os.path.getsize(path)} bytes)")
-
-
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main(SCENES, __doc__)

@@ -6,25 +6,20 @@ Metallic (one Non-Color image through Separate Color, G and B, x factors) and No
 come from image textures. The floor and the block are made here with UVs, exported to glTF with those images and
 imported back with Blender's own importer (shipped with ``bpy``), so the node pattern is the importer's, not ours.
 The dielectric specular layer is on (Specular IOR Level 0.5, IOR 1.5, as glTF asks). Images: 64x64, generated.
-Run from the repository root (it reuses make_examples.py's helpers):
+Run from the repository root (it reuses make_examples.py's Cornell box):
 
     .venv/bin/python example_blends/make_pbr.py [--out DIR] [--force]
 """
-import argparse
-import hashlib
 import math
 import os
-import sys
 import tempfile
 
 import bpy
 import numpy as np
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from make_examples import (add_area_light, add_short_box, box_geometry, cornell_base, mesh_object, save,  # noqa: E402
-                           stored_fingerprint)
+from make_examples import add_area_light, add_short_box, cornell_base
+from scene_building import box_geometry, main, mesh_object
 
-NAME = "cornell_pbr"
 SIZE = 64
 
 
@@ -142,31 +137,8 @@ def build_cornell_pbr():
         bpy.data.images.remove(image)
 
 
-def fingerprint():
-    """This script, the helpers it imports and Blender's version: what the file depends on."""
-    digest = hashlib.sha256()
-    here = os.path.dirname(os.path.abspath(__file__))
-    for name in ("make_pbr.py", "make_examples.py"):
-        with open(os.path.join(here, name), "rb") as f:
-            digest.update(f.read())
-    digest.update(bpy.app.version_string.encode())
-    return digest.hexdigest()
-
-
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
-    parser.add_argument("--force", action="store_true", help="rewrite the file even if it is up to date")
-    args = parser.parse_args(argv)
-    path = os.path.join(os.path.abspath(args.out), NAME + ".blend")
-    stamp = fingerprint()
-    if not args.force and stored_fingerprint(path) == stamp:
-        print(f"up to date: {path}")
-        return
-    build_cornell_pbr()
-    save(path, stamp)
-    print(f"wrote {path} ({os.path.getsize(path)} bytes)")
+SCENES = {"cornell_pbr": build_cornell_pbr}
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main(SCENES, __doc__)

@@ -6,23 +6,17 @@ moving object.
 * ``seq_moving_object.blend``: the classic box lit by its 40 W area light; the short block slides 0.8 m across
   the floor towards the red wall and turns by 30 degrees, frames 1 to 24.
 
-Both are 128x128 (the references cost a Cycles render per frame) with linear keyframes. Each file stores a
-fingerprint of this script, make_examples.py and Blender's version and is only rewritten when one changes. Run from
-the repository root:
+Both are 128x128 (the references cost a Cycles render per frame) with linear keyframes and saved at frame 1. Run
+from the repository root (it reuses make_examples.py's Cornell box):
 
     .venv/bin/python example_blends/make_sequences.py [--out DIR] [--force]
 """
-import argparse
-import hashlib
 import math
-import os
-import sys
 
 import bpy
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from make_examples import (add_area_light, add_light, add_short_box, add_tall_box, cornell_base, save,  # noqa: E402
-                           stored_fingerprint)
+from make_examples import add_area_light, add_short_box, cornell_base
+from scene_building import add_light, main
 
 RESOLUTION = 128
 FRAMES = (1, 24)
@@ -49,6 +43,7 @@ def build_moving_light():
     for frame, location in zip(FRAMES, LIGHT_PATH):
         light.location = location
         light.keyframe_insert("location", frame=frame)
+    bpy.context.scene.frame_set(FRAMES[0])
 
 
 def build_moving_object():
@@ -62,37 +57,11 @@ def build_moving_object():
         box.rotation_euler.z = turn + fraction * math.radians(BOX_TURN_DEG)
         box.keyframe_insert("location", frame=frame)
         box.keyframe_insert("rotation_euler", frame=frame)
+    bpy.context.scene.frame_set(FRAMES[0])
 
 
 SCENES = {"seq_moving_light": build_moving_light, "seq_moving_object": build_moving_object}
 
 
-def fingerprint(name):
-    digest = hashlib.sha256(name.encode())
-    here = os.path.dirname(os.path.abspath(__file__))
-    for script in ("make_sequences.py", "make_examples.py"):
-        with open(os.path.join(here, script), "rb") as f:
-            digest.update(f.read())
-    digest.update(bpy.app.version_string.encode())
-    return digest.hexdigest()
-
-
-def main(argv=None):
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--out", default=os.path.dirname(os.path.abspath(__file__)))
-    parser.add_argument("--force", action="store_true", help="rewrite the files even if they are up to date")
-    args = parser.parse_args(argv)
-    for name, build in SCENES.items():
-        path = os.path.join(os.path.abspath(args.out), name + ".blend")
-        stamp = fingerprint(name)
-        if not args.force and stored_fingerprint(path) == stamp:
-            print(f"up to date: {path}")
-            continue
-        build()
-        bpy.context.scene.frame_set(FRAMES[0])
-        save(path, stamp)
-        print(f"wrote {path} ({os.path.getsize(path)} bytes)")
-
-
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    main(SCENES, __doc__)
