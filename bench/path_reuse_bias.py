@@ -18,7 +18,7 @@ import sys
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path[:0] = [ROOT, os.path.join(ROOT, "tests")]
+sys.path[:0] = [ROOT, os.path.join(ROOT, "tests"), os.path.join(ROOT, "tests", "engine", "methods")]
 
 from test_path_verification import room_with_block, room_with_lamp  # noqa: E402
 from vpl_addon.core.tracer import Tracer  # noqa: E402
