@@ -1,7 +1,7 @@
 """Is path reuse (Moreau et al., ``path_verification``) unbiased? Over many seeds, the VPL flux that kept-and-verified
 light paths leave after one change is compared with that of paths traced afresh in the changed scene, per bounce
-and per cell of a 6 x 5 x 4 grid over the room of ``tests/test_path_verification.py`` (a floor, a wall, a 0.4 m
-block, a lamp at 2.5 m). No Blender, no images: the flux sums are exact functions of the paths.
+and per cell of a 6 x 5 x 4 grid over the room of ``tests/engine/methods/test_path_verification.py`` (a floor,
+a wall, a 0.4 m block, a lamp at 2.5 m). No Blender, no images: the flux sums are exact functions of the paths.
 
     .venv/bin/python bench/path_reuse_bias.py --change block [--seeds 600] [--threshold 0.001]
     .venv/bin/python bench/path_reuse_bias.py --change lamp            # a 0.05 m sphere lamp moved by 0.1 m
@@ -18,7 +18,7 @@ import sys
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path[:0] = [ROOT, os.path.join(ROOT, "tests")]
+sys.path[:0] = [ROOT, os.path.join(ROOT, "tests"), os.path.join(ROOT, "tests", "engine", "methods")]
 
 from test_path_verification import room_with_block, room_with_lamp  # noqa: E402
 from vpl_addon.core.tracer import Tracer  # noqa: E402

@@ -3,7 +3,7 @@
 0. The placement at the engine's defaults (4,096 lights from 40,960 candidates, 2^18 light paths), its stages as
    ``RenderResult.info["seconds"]`` has them, after a warm-up placement (compiled kernels load from disk).
 1. Adaptive sample elimination of 1,000,000 camera candidates (sec. 3.1, found in the scene) to 100,000 lights
-   (that it spaces them like the sequential greedy is a test, tests/test_vbnl.py; here only the time).
+   (that it spaces them like the sequential greedy is a test, tests/engine/methods/test_vbnl.py; here only the time).
 2. Photon splitting of about 10,000,000 photons (light-path vertices) among those 100,000 lights, as the
    placement does it (``photon_batches``, ``split_photons``): light paths traced in batches on the tracer's threads
    and never stored, each vertex's intensity shared among the lights covering it, kept apart by bounce, on as

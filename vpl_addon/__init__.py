@@ -1,6 +1,6 @@
 """The engine: global illumination with virtual lights, in numpy, scipy and embreex; no bpy anywhere below here.
 
-Subpackages by kind, each importing only its own or a lower layer (checked by ``tests/test_layout.py``):
+Subpackages by kind, each importing only its own or a lower layer (checked by ``tests/repository/test_layout.py``):
 
     core        scene arrays, camera, tracer, sampling, colour, passes, EXR, memory     imports nothing of the engine
     materials   the surface a ray hits, its microfacet lobe, textures                   core

@@ -28,7 +28,7 @@ from ...vpl_addon.render import Cancelled
 WIDTH, HEIGHT = 1024, 512  # a texel is 0.35 degrees: Nishita's sun disc (0.545 degrees) spans about two
 SAMPLES = 16  # a smooth world (the sky without its sun disc): Diffuse Direct mean within 0.1 % of Cycles
 SUN_SAMPLES = 256  # a Sky Texture's sun disc covers a few texels, lit by few of 16 samples: 2-3 % of its light off
-# at 16 or 64 samples, 0.5 % at 256 (mean Diffuse Direct against Cycles, tests/test_world_bake.py)
+# at 16 or 64 samples, 0.5 % at 256 (mean Diffuse Direct against Cycles, tests/cycles/test_world_bake.py)
 TIMEOUT = 300.0  # seconds
 POLL = 0.1  # seconds between two looks at the user's ESC while Cycles bakes
 

@@ -3,7 +3,7 @@ light (``direct``): one module per kind of light, ``light_set.LightSet`` choosin
 and ``materials``.
 
 Units follow Cycles (``scene/light.cpp``, ``kernel/light/*.h``), checked against Cycles' ``Diffuse Direct`` pass
-by ``tests/test_cycles_direct.py``:
+by ``tests/cycles/test_cycles_direct.py``:
 
 * point and spot, power P [W]: radiant intensity I = P / (4 pi) [W/sr]; with radius R the light is a sphere of
   radiance I / (pi R^2). A spot is a point light cut by a cone, not renormalised to it.

@@ -117,9 +117,9 @@ def _reach(lum):
       carries into its neighbours is never sampled far below its share, so the ratio of light to pdf stays smooth
       where the stratified light samples of a pixel can use it.
 
-    ``Diffuse Direct`` rMAE against Cycles at 1024 spp, 64 camera x 2 light samples (``tests/test_environment_cycles``,
-    ``tests/test_world_bake``), bound alone / mean alone / mixture: a 2 x 2-texel sun in a 128 x 64 map 0.021 /
-    0.043 / 0.021; Cycles' sky texture baked 0.060 / 0.038 / 0.035."""
+    ``Diffuse Direct`` rMAE against Cycles at 1024 spp, 64 camera x 2 light samples
+    (``tests/cycles/test_environment_cycles``, ``tests/cycles/test_world_bake``), bound alone / mean alone / mixture: a
+    2 x 2-texel sun in a 128 x 64 map 0.021 / 0.043 / 0.021; Cycles' sky texture baked 0.060 / 0.038 / 0.035."""
     mean = 0.125 * np.roll(lum, 1, axis=1) + 0.75 * lum + 0.125 * np.roll(lum, -1, axis=1)
     mean = 0.125 * np.concatenate([mean[:1], mean[:-1]]) + 0.75 * mean + 0.125 * np.concatenate([mean[1:], mean[-1:]])
     padded = np.pad(lum, ((1, 1), (0, 0)), mode="edge")

@@ -4,7 +4,7 @@ import os
 import subprocess
 import sys
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from conftest import ROOT
 
 MODULE = """
 from vpl_addon.core.compiled import kernel
@@ -28,7 +28,7 @@ assert sampling.group_sum(np.array([0, 0, 1]), np.ones((3, 2)), 2).tolist() == [
 
 def run(code, cache):
     env = {key: value for key, value in os.environ.items() if key != "NUMBA_CACHE_DIR"}
-    env.update(VPL_GI_CACHE=str(cache), PYTHONPATH=os.pathsep.join([ROOT, str(cache.parent / "src")]))
+    env.update(VPL_GI_CACHE=str(cache), PYTHONPATH=os.pathsep.join([str(ROOT), str(cache.parent / "src")]))
     subprocess.run([sys.executable, "-c", code], env=env, check=True, timeout=300, cwd=str(cache.parent))
 
 

@@ -1,7 +1,8 @@
 """The picture denoised as Cycles' render denoiser does it (issue 23): OpenImageDenoise on Combined, guided by the
 Denoising Albedo and Denoising Normal passes, which carry Cycles' names and meanings.
 
-``python tests/test_denoise.py`` renders the committed reference of Cycles' guides again (after the scene changed)."""
+``PYTHONPATH=tests python tests/cycles/test_denoise.py`` renders the committed reference of Cycles' guides again (after
+the scene changed)."""
 import hashlib
 import json
 
@@ -82,7 +83,7 @@ def test_denoising_albedo_and_normal_are_cycles(ext, tmp_path):
     reference = json.loads(GUIDES.read_text())
     ours = _guide_means(_render(bpy, tmp_path / "ours.exr", engine.VPLGIRenderEngine.bl_idname, True, 16))
     assert ours["scene_sha256"] == reference["scene_sha256"], \
-        f"{SCENE.name} changed since {GUIDES.name} was rendered: run python tests/test_denoise.py"
+        f"{SCENE.name} changed since {GUIDES.name} was rendered: run PYTHONPATH=tests python tests/cycles/test_denoise.py"
     assert abs(ours["pixels"] - reference["pixels"]) <= 0.01 * reference["pixels"]
     np.testing.assert_allclose(ours["Denoising Albedo"], reference["Denoising Albedo"], rtol=0.01)
     mine, theirs = np.array(ours["Denoising Normal"]), np.array(reference["Denoising Normal"])

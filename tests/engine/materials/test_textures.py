@@ -26,6 +26,14 @@ def shaded(scene, xy, down=(0.0, 0.0, -1.0)):
     return shade(scene, dirs, hits, np.arange(len(xy)))
 
 
+def test_bilinear_texture_lookup_repeats_and_interpolates():
+    tex = np.zeros((2, 2, 3), np.float32)
+    tex[0, 0] = 1.0  # bottom-left texel
+    assert np.allclose(sample_bilinear(tex, np.array([[0.25, 0.25]])), 1.0)  # its centre
+    assert np.allclose(sample_bilinear(tex, np.array([[1.25, -0.75]])), 1.0)  # repeated
+    assert np.allclose(sample_bilinear(tex, np.array([[0.5, 0.25]])), 0.5)  # halfway to the next texel
+
+
 def test_extension_and_interpolation_modes():
     tex = np.zeros((2, 2, 3), np.float32)
     tex[0, 0] = 1.0  # bottom-left texel

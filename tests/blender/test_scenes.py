@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from conftest import ROOT
-from importers import cornell_measured, mitsuba, wavefront  # no bpy in them: tests/test_layout.py
+from importers import cornell_measured, mitsuba, wavefront  # no bpy in them: tests/repository/test_layout.py
 
 SHARED = ROOT.parent / "shared" / "scenes"
 NEED_SHARED = pytest.mark.skipif(not SHARED.is_dir(), reason="../shared/scenes is not beside the repository")
