@@ -50,6 +50,11 @@ from .paths.gbuffer import GBuffer
 from .paths.over_metal import over_metal
 
 
+def _method(name: str):
+    """The method ``name`` of ``methods.METHODS``, None for "none": the one place the render looks a method up."""
+    return METHODS.get(name)
+
+
 class Cancelled(Exception):
     """The user cancelled the render."""
 
@@ -213,7 +218,8 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     vpls, d_min, permutation, context = None, 0.0, None, None
     vbnl = settings.placement.vbnl  # its automatic light paths follow the camera samples (``light_paths``)
     placement = replace(settings.placement, vbnl=replace(vbnl, photons=vbnl.light_paths(w * h * settings.samples)))
-    sampled = getattr(METHODS.get(settings.method), "gather", None)  # the method's own gather, if it samples
+    method = _method(settings.method)
+    sampled = getattr(method, "gather", None)  # the method's own gather, if it samples
     try:
         if need_indirect:
             t0 = time.perf_counter()
@@ -224,7 +230,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
             if sequence is None:
                 vpls, result.info = place(settings.method, context, placement)
             else:
-                vpls, result.info = sequence.place(METHODS[settings.method], context, placement)
+                vpls, result.info = sequence.place(method, context, placement)
             guard("place", {"VPL intensity": vpls.intensity})
             if sampled is None:
                 d_min = clamp_distance(scene.surface_area, placement.vpls, settings.gather.clamp)
@@ -255,7 +261,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         if sampled is None:
             gather_spp, repeats = min(settings.indirect_samples, settings.samples), 1
         else:  # the method's sample pairs per pixel, spread over the camera samples
-            pairs = METHODS[settings.method].gather_samples(placement, settings.samples)
+            pairs = method.gather_samples(placement, settings.samples)
             gather_spp = min(pairs, settings.samples)
             repeats = -(-pairs // gather_spp)
 
