@@ -25,7 +25,7 @@ from __future__ import annotations
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import partial
 from typing import Callable
 
@@ -45,6 +45,7 @@ from .lights.direct import direct_light
 from .materials.cutouts import cutouts
 from .materials.microfacet import GlossyLobe
 from .methods import METHODS, NONE, MethodContext, MethodSettings, place
+from .methods.base import Method
 from .paths.data_passes import Mist, data_passes, first_surfaces_needed
 from .paths.gbuffer import GBuffer
 from .paths.over_metal import over_metal
@@ -57,10 +58,9 @@ class Cancelled(Exception):
 @dataclass
 class RenderSettings:
     # camera samples per pixel (G-buffer) and next-event samples per camera sample for direct light: 16 x 2, chosen
-    # by ``bench/sample_counts.py`` (bench/README.md, "Camera and light samples"): with the render denoised, the
-    # VPLs' indirect light is the picture's error, and 64 x 8 took 1.4-4.1x as long for the same rMAE. vbnl gathers
-    # one sample pair per camera sample unless told otherwise, so ``samples`` is the render's one quality knob
-    # (bench/README.md, "One knob")
+    # by ``bench/sample_counts.py``: with the render denoised, the VPLs' indirect light is the picture's error, and
+    # 64 x 8 takes 1.4-4.1x as long for the same rMAE. vbnl gathers one sample pair per camera sample unless told
+    # otherwise, so ``samples`` is the render's one quality knob (``bench/sample_counts.py --pairs``)
     samples: int = 16
     light_samples: int = 2
     seed: int = 0
@@ -175,14 +175,121 @@ def pixel_footprint(camera, position: np.ndarray) -> np.ndarray:
     return np.linalg.norm(position - camera.position, axis=1) * size
 
 
+@dataclass
+class _Plan:
+    """What a frame needs, decided from the settings, the scene and its lights before a ray is traced: the passes
+    to make, the work they ask for (each ``need_*`` that is false skips its work), the camera of the pixels
+    rendered, and how the method's light is gathered."""
+    want: set[str]  # the passes asked for, Combined, and the denoiser's guides when it denoises
+    need_direct: bool
+    need_indirect: bool  # narrowed by ``_place`` to whether anything is left to gather
+    need_glossy: bool
+    need_background: bool
+    filtering: bool  # the gather's filter runs (``_filter``)
+    bounces: int
+    cam: object  # the camera of the pixels rendered: a border's, plus the filter's reach around it
+    w: int
+    h: int
+    border: tuple[slice, slice]  # the output's rows and columns among ``cam``'s pixels (the filter's margin off)
+    placement: MethodSettings  # the method's settings, vbnl's light paths following the camera samples
+    method: Method | None  # the method (``methods.base.Method``); None for "none"
+    sampled: Callable | None  # the method's own gather, if it samples its lights; None: its VPLs are summed
+    gather_spp: int  # gathering samples per pixel, of its camera samples
+    repeats: int  # the sampled gather's sample pairs per gathering sample
+    data_wanted: set[str]  # the data passes (``paths.data_passes``) among ``want``
+    first_surfaces: bool  # whether they see each sample's first surface (``first_surfaces_needed``)
+
+
+@dataclass
+class _Placed:
+    """The method's lights placed for the frame, and what gathering them reads: the method's ``context`` (its own
+    gather's) or, for summed VPLs, the gather's clamping distance and order of the lights (``gather.summing``)."""
+    vpls: object = None  # VirtualLights
+    context: MethodContext | None = None
+    d_min: float = 0.0
+    permutation: np.ndarray | None = None
+
+
+@dataclass
+class _Frame:
+    """The frame's arrays, one row per pixel of the plan's camera, into which each block writes its pixels' rows.
+    They are float32, as the passes are written (a block's sums are made in float64): a 1920 x 1080 frame's pixels
+    take 8 bytes a channel less."""
+    images: dict[str, np.ndarray]  # pass -> (W*H, channels)
+    indirect: np.ndarray  # Diffuse Indirect: the pixel's albedo-weighted mean of the gathered light
+    # the light of shadow rays through glass: Cycles' Diffuse Indirect (a transmission bounce), by pixel; None
+    # without glass, direct light or bounces
+    glazed: np.ndarray | None
+    # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
+    shine: np.ndarray
+    shine_color: np.ndarray
+    glossy_color: np.ndarray
+    # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
+    # gathering samples of that lobe, and their number (float32: a guide needs no more, and 1920 x 1080 holds
+    # 0.24 GB less); None without the filter
+    guide_position: np.ndarray | None
+    guide_normal: np.ndarray | None
+    guide_count: np.ndarray | None
+
+    def drop_gathering(self) -> None:
+        """The gathering's arrays let go (a pass keeps the one it holds), so that the denoiser's scratch memory
+        finds their room."""
+        self.indirect = self.shine = self.shine_color = self.glossy_color = None
+        self.guide_position = self.guide_normal = self.guide_count = None
+
+
+@dataclass
+class _Job:
+    """One frame under way: what its stages after the placement read (the scene, its settings, tracer and lights,
+    the plan and the placed lights) and the frame's arrays they write."""
+    scene: object
+    settings: RenderSettings
+    tracer: Tracer
+    lights: LightSet
+    plan: _Plan
+    placed: _Placed
+    frame: _Frame
+
+
 def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None,
            sequence=None, shown: Callable[[int, np.ndarray], None] | None = None) -> RenderResult:
     """One frame; ``sequence`` (a ``sequence.state.SequenceState``) carries the method's state from the previous
-    frame."""
+    frame. Its stages are named calls, as in pbrt-v4's and Mitsuba 3's integrators: build the tracer and lights,
+    plan what the frame needs, place the method's lights, make the frame's buffers, shade its blocks (G-buffer,
+    direct light, the gather, the passes), add the filtered indirect light, denoise, collect the passes."""
     result = RenderResult(passes={})
+    tracer, lights = _build(scene, settings, sequence, result)
+    try:
+        plan = _plan(scene, settings, lights)
+        placed = _place(scene, settings, plan, tracer, lights, sequence, result)
+        job = _Job(scene, settings, tracer, lights, plan, placed, _frame(scene, plan))
+        timing = _shade(job, progress, shown)
+    finally:
+        if sequence is None:  # a sequence keeps its BVH for the next frame
+            tracer.close()
+    images, lit = job.frame.images, None
+    if plan.need_indirect:
+        lit = _filter(job, timing)
+        result.info["vpls"] = len(placed.vpls)
+    if P.DIFFUSE_INDIRECT in plan.want:
+        glazed = job.frame.glazed
+        images[P.DIFFUSE_INDIRECT] = job.frame.indirect if glazed is None else job.frame.indirect + glazed
+    result.seconds.update(timing)
+    if P.NOISY_IMAGE in plan.want:
+        images[P.NOISY_IMAGE] = images[P.COMBINED].copy()
+    if settings.denoise:
+        _denoise(job, lit, progress, result)
+    return _collect(job, result)
 
-    def guard(stage, arrays):  # a bad value fails the render naming the method and the stage that made it
-        P.check(arrays, f"method {settings.method!r}, stage {stage!r}")
+
+def _guard(settings: RenderSettings, stage: str, arrays: dict[str, np.ndarray]) -> None:
+    """A bad value fails the render naming the method and the stage that made it (``core.passes.check``)."""
+    P.check(arrays, f"method {settings.method!r}, stage {stage!r}")
+
+
+def _build(scene, settings: RenderSettings, sequence, result: RenderResult) -> tuple[Tracer, LightSet]:
+    """The frame's tracer (a sequence's own, which keeps its BVH between frames) and lights, in ``result`` the
+    seconds as "build" and warnings of skipped triangles and of a scene without lights."""
     for name, count in scene.dropped.items():
         result.warnings.append(f"object {name!r}: {count} degenerate or non-finite triangles skipped")
     t0 = time.perf_counter()
@@ -192,7 +299,11 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
     if len(lights) == 0:
         result.warnings.append("the scene has no lights: direct and indirect light are black")
     result.seconds["build"] = time.perf_counter() - t0
+    return tracer, lights
 
+
+def _plan(scene, settings: RenderSettings, lights: LightSet) -> _Plan:
+    """What the frame needs (``_Plan``) to make ``settings``' passes of ``scene`` lit by ``lights``."""
     want = set(settings.passes) | {P.COMBINED}
     if settings.denoise:
         want |= {P.DENOISING_ALBEDO, P.DENOISING_NORMAL}
@@ -204,246 +315,318 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         settings.method != NONE and bounces > 0 and len(scene.triangles) > 0
     # the gather's filter evens out the interleaving for a picture left as rendered; before OIDN it costs more than
     # it removes (it blends the light of nearby surfaces, which OIDN's guides keep apart): without it the denoised
-    # Combined is 13 to 37 % closer to the references with vbnl, 2 to 9 % with the others (bench/README.md)
+    # Combined is 13 to 37 % closer to the references with vbnl, 2 to 9 % with the others
     filtering = need_indirect and settings.gather.filter and settings.gather.interleave > 1 and \
         not (settings.denoise and denoiser_available())
     # a render border: its pixels only, and the filter's reach around it, so that it filters them as in the frame
     cam = scene.camera.around(settings.gather.interleave if filtering else 0)
-    _, _, w, h = cam.pixel_region
-    vpls, d_min, permutation, context = None, 0.0, None, None
-    vbnl = settings.placement.vbnl  # its automatic light paths follow the camera samples (``light_paths``)
-    placement = replace(settings.placement, vbnl=replace(vbnl, photons=vbnl.light_paths(w * h * settings.samples)))
-    sampled = None if settings.method == NONE else METHODS[settings.method].gather  # its own, if it samples
-    try:
-        if need_indirect:
-            t0 = time.perf_counter()
-            placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
-            context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), bounces,
-                                    np.random.default_rng([settings.seed, 1 << 21]),
-                                    None if sequence is None else partial(sequence.still, scene))
-            if sequence is None:
-                vpls, result.info = place(settings.method, context, placement)
-            else:
-                vpls, result.info = sequence.place(METHODS[settings.method], context, placement)
-            guard("place", {"VPL intensity": vpls.intensity})
-            if sampled is None:
-                d_min = clamp_distance(scene.surface_area, placement.vpls, settings.gather.clamp)
-                permutation = context.rng.permutation(len(vpls))
-            result.seconds["place"] = time.perf_counter() - t0
-            # light over metal needs no VPL (the lights' own light the metal reflects)
-            need_indirect = len(vpls) > 0 or (sampled is None and scene.materials.glossy)
+    (x, y, w, h), (bx, by, bw, bh) = cam.pixel_region, scene.camera.pixel_region
+    method = None if settings.method == NONE else METHODS[settings.method]
+    placement = settings.placement if method is None or method.frame_settings is None else \
+        method.frame_settings(settings.placement, w * h * settings.samples)
+    sampled = None if method is None else method.gather  # the method's own gather, if it samples
+    if sampled is None:
+        gather_spp, repeats = min(settings.indirect_samples, settings.samples), 1
+    else:  # the method's sample pairs per pixel, spread over the camera samples
+        pairs = method.gather_samples(placement, settings.samples)
+        gather_spp = min(pairs, settings.samples)
+        repeats = -(-pairs // gather_spp)
+    data_wanted = want - set(P.ALL)
+    return _Plan(want, need_direct, need_indirect, need_glossy, need_background, filtering, bounces, cam, w, h,
+                 (slice(by - y, by - y + bh), slice(bx - x, bx - x + bw)), placement, method, sampled, gather_spp,
+                 repeats, data_wanted, first_surfaces_needed(data_wanted))
 
-        # the frame's arrays in float32, as the passes are written (a block's sums are made in float64): a
-        # 1920 x 1080 frame's pixels take 8 bytes a channel less
-        images = {name: np.zeros((w * h, P.CHANNELS[name]), np.float32) for name in want | {P.DIFFUSE_COLOR}}
-        indirect = np.zeros((w * h, 3), np.float32)
-        # the light of shadow rays through glass: Cycles' Diffuse Indirect (a transmission bounce), by pixel
-        glazed = np.zeros((w * h, 3), np.float32) if need_direct and bounces > 0 and scene.materials.glass.any() \
-            else None
-        # glossy indirect light and its colour summed over the gathering samples; Glossy Color (all samples)
-        shine, shine_color, glossy_color = (np.zeros((w * h, 3), np.float32) for _ in range(3))
-        # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
-        # gathering samples of that lobe, and their number (float32: a guide needs no more, and 1920 x 1080 holds
-        # 0.24 GB less); none without the filter
-        guide_position, guide_normal = (np.zeros((2, w * h, 3), np.float32) if filtering else None for _ in range(2))
-        guide_count = np.zeros((2, w * h), np.float32) if filtering else None
-        data_wanted = want - set(P.ALL)
-        first_surfaces = first_surfaces_needed(data_wanted)
-        starts = list(range(0, w * h, settings.block_pixels))
-        timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
-        cancelled = threading.Event()
-        if sampled is None:
-            gather_spp, repeats = min(settings.indirect_samples, settings.samples), 1
-        else:  # the method's sample pairs per pixel, spread over the camera samples
-            pairs = METHODS[settings.method].gather_samples(placement, settings.samples)
-            gather_spp = min(pairs, settings.samples)
-            repeats = -(-pairs // gather_spp)
 
-        def summed(points, glossy, pixel, rng):
-            """The VPLs' light at camera points (white Lambertian, or the metallic lobe ``glossy``): the interleaved
-            gather, each point with its pixel's VPL subset, plus the light that comes over metal
-            (``paths.over_metal``); a metallic lobe sees VPLs only over its paths."""
-            xy = np.stack([pixel % cam.width, pixel // cam.width], 1)  # the frame's tiles, border or not
+def _place(scene, settings: RenderSettings, plan: _Plan, tracer, lights: LightSet, sequence,
+           result: RenderResult) -> _Placed:
+    """The method's lights for the frame (none unless it needs indirect light), checked at "place"; a sequence's
+    method carries its state from frame to frame (``SequenceState.place``). In ``result`` the method's info and
+    the seconds as "place". Narrows ``plan.need_indirect`` to whether anything is left to gather: light over metal
+    needs no VPL (the lights' own light the metal reflects)."""
+    if not plan.need_indirect:
+        return _Placed()
+    t0 = time.perf_counter()
+    placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
+    context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), plan.bounces,
+                            np.random.default_rng([settings.seed, 1 << 21]),
+                            None if sequence is None else partial(sequence.still, scene))
+    if sequence is None:
+        vpls, result.info = place(settings.method, context, plan.placement)
+    else:
+        vpls, result.info = sequence.place(plan.method, context, plan.placement)
+    _guard(settings, "place", {"VPL intensity": vpls.intensity})
+    placed = _Placed(vpls, context)
+    if plan.sampled is None:
+        placed.d_min = clamp_distance(scene.surface_area, plan.placement.vpls, settings.gather.clamp)
+        placed.permutation = context.rng.permutation(len(vpls))
+    result.seconds["place"] = time.perf_counter() - t0
+    plan.need_indirect = len(vpls) > 0 or (plan.sampled is None and scene.materials.glossy)
+    return placed
 
-            def vpl_light(ends, owner):
-                return gather(ends, xy[owner], vpls, tracer, settings.gather, d_min, permutation)
-            light = over_metal(points, glossy, scene, tracer, lights, rng, vpl_light, bounces)
-            return light if glossy is not None else light + vpl_light(points, np.arange(len(points)))
 
-        def shade_block(number: int):
-            """Everything for one block of pixels; blocks run concurrently (numpy and embree release the GIL)."""
-            if cancelled.is_set():
-                return {}
-            pixels = np.arange(starts[number], min(starts[number] + settings.block_pixels, w * h))
-            rng = np.random.default_rng([settings.seed, number])
-            marks = {"start": time.perf_counter()}
-            gbuf = GBuffer.build(scene, tracer, cam.frame_pixels(pixels), settings.samples, rng, first_surfaces)
-            surf = gbuf.surface
-            guard("G-buffer", {P.DIFFUSE_COLOR: surf.albedo, P.EMIT: surf.emission})
-            lobe = GlossyLobe.of(surf) if need_glossy else None
-            diffuse = (largest(surf.albedo) > 0.0)[:, None]  # the diffuse passes see only diffuse surfaces
-            marks["gbuffer"] = time.perf_counter()
-            if need_direct:
-                # the light samples of a pixel: scrambled nets, dealt to its camera samples in random order
-                numbers = []
-                for needed in (bool(lights.local), lights.world is not None):  # a net for each kind of light
-                    numbers += pixel_nets(gbuf.sample // gbuf.spp, settings.light_samples, rng) if needed else \
-                        [None, None]
-                through = None if glazed is None else np.zeros_like(surf.albedo)
-                direct, glossy = direct_light(surf, lights, tracer, settings.light_samples, rng,
-                                              numbers=tuple(numbers), glossy=lobe, through=through)
-                guard("direct light", {P.DIFFUSE_DIRECT: direct, P.GLOSSY_DIRECT: glossy})
-            else:
-                direct, glossy, through = np.zeros_like(surf.albedo), np.zeros_like(surf.albedo), None
-            marks["direct"] = time.perf_counter()
-            if need_indirect:
-                rows = gbuf.first(diffuse[:, 0], gather_spp)  # the gathering samples of each lobe
-                sub = surf.take(rows)
-                if sampled is None:
-                    light = summed(sub, None, gbuf.pixel_of_hit[rows], rng)
-                else:
-                    many = np.repeat(rows, repeats)
-                    light = sampled(sub if repeats == 1 else surf.take(many), vpls, context, placement, rng,
-                                    pixel=gbuf.sample[many] // gbuf.spp)
-                    light = light.reshape(len(rows), repeats, 3).mean(axis=1)
-                guard("gather", {P.DIFFUSE_INDIRECT: light})
-                if lobe is not None:
-                    shiny = gbuf.first(surf.glossy, glossy_samples(gbuf, surf, lobe, gather_spp))
-                    if sampled is None:
-                        reflected = summed(surf.take(shiny), lobe.take(shiny), gbuf.pixel_of_hit[shiny], rng)
-                    else:
-                        many = np.repeat(shiny, repeats)
-                        reflected = sampled(surf.take(many), vpls, context, placement, rng,
-                                            glossy=lobe.take(many),
-                                            pixel=gbuf.sample[many] // gbuf.spp)
-                        reflected = reflected.reshape(len(shiny), repeats, 3).mean(axis=1)
-                    guard("gather", {P.GLOSSY_INDIRECT: reflected})
-                    at = gbuf.sample[shiny] // gbuf.spp
-                    shine[pixels] = group_sum(at, gbuf.tinted(reflected, shiny), len(pixels))
-                    shine_color[pixels] = group_sum(at, gbuf.tinted(lobe.color[shiny], shiny), len(pixels))
-                at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
-                albedo = gbuf.tinted(sub.albedo, rows)
-                indirect[pixels] = _divide(group_sum(at, albedo * light, len(pixels)),
-                                           group_sum(at, albedo, len(pixels)))
-                for kind, guides in enumerate(((rows, shiny) if lobe is not None else (rows,)) if filtering else ()):
-                    local = gbuf.sample[guides] // gbuf.spp
-                    guide_position[kind, pixels] = group_sum(local, surf.position[guides], len(pixels))
-                    guide_normal[kind, pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
-                    guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
-            marks["gather"] = time.perf_counter()
-            lamps = gbuf.lamps()  # the lights the camera sees
-            images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission, True) + lamps
-            images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
-            if need_background:
-                background = gbuf.background(lights.world)
-                guard("G-buffer", {P.ENVIRONMENT: background})
-                if not settings.film_transparent:
-                    images[P.COMBINED][pixels, :3] += background
-                if P.ENVIRONMENT in want:
-                    images[P.ENVIRONMENT][pixels] = background
-            images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo, True)
-            if P.DIFFUSE_DIRECT in want:
-                images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct, True),
-                                                           images[P.DIFFUSE_COLOR][pixels])
-            if through is not None:
-                guard("direct light", {P.DIFFUSE_INDIRECT: through})
-                glass_light = gbuf.splat(surf.albedo * through, True)
-                images[P.COMBINED][pixels, :3] += glass_light
-                glazed[pixels] = _divide(glass_light, images[P.DIFFUSE_COLOR][pixels])
-            if lobe is not None:
-                color = glossy_color[pixels] = gbuf.splat(lobe.color, True)
-                for name, image in ((P.GLOSSY_COLOR, color),
-                                    (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy, True), color))):
-                    if name in want:
-                        images[name][pixels] = image
-            emitted = gbuf.splat(surf.emission, True) + lamps if {P.EMIT, P.DENOISING_ALBEDO} & want else None
-            if P.EMIT in want:
-                images[P.EMIT][pixels] = emitted
-            if P.DENOISING_ALBEDO in want:  # Cycles': the colour reflected, plus what is emitted and the world seen
-                albedo = images[P.DIFFUSE_COLOR][pixels] + glossy_color[pixels] + emitted
-                images[P.DENOISING_ALBEDO][pixels] = albedo + (background if need_background and
-                                                               not settings.film_transparent else 0.0)
-            if data_wanted:
-                for name, image in data_passes(gbuf, scene, data_wanted, tracer, rng, settings.mist,
-                                               settings.ao_distance).items():
-                    images[name][pixels] = image
-            return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
-                    "gather": marks["gather"] - marks["direct"]}
+def _frame(scene, plan: _Plan) -> _Frame:
+    """The frame's arrays (``_Frame``) at zero: a pass each of ``plan.want`` and Diffuse Color, and the
+    gathering's light, colour and guides (the light through glass only for glass lit directly, the guides only
+    for the filter)."""
+    pixels = plan.w * plan.h
+    images = {name: np.zeros((pixels, P.CHANNELS[name]), np.float32) for name in plan.want | {P.DIFFUSE_COLOR}}
+    indirect = np.zeros((pixels, 3), np.float32)
+    glazed = np.zeros((pixels, 3), np.float32) \
+        if plan.need_direct and plan.bounces > 0 and scene.materials.glass.any() else None
+    shine, shine_color, glossy_color = (np.zeros((pixels, 3), np.float32) for _ in range(3))
+    guide_position, guide_normal = (np.zeros((2, pixels, 3), np.float32) if plan.filtering else None
+                                    for _ in range(2))
+    guide_count = np.zeros((2, pixels), np.float32) if plan.filtering else None
+    return _Frame(images, indirect, glazed, shine, shine_color, glossy_color, guide_position, guide_normal,
+                  guide_count)
 
-        (x, y, _, _), (bx, by, bw, bh) = cam.pixel_region, scene.camera.pixel_region
-        border = (slice(by - y, by - y + bh), slice(bx - x, bx - x + bw))  # the filter's margin off
-        ready = 0  # output rows shown so far
 
-        def show(done_pixels: int):
-            """Hand ``shown`` the output rows that the blocks done so far complete."""
-            nonlocal ready
-            rows = min(done_pixels // w - border[0].start, bh)
-            if rows > ready:
-                band = images[P.COMBINED].reshape(h, w, 4)[border][ready:rows]
-                shown(ready, band.astype(np.float32))
-                ready = rows
+def _shade(job: _Job, progress, shown) -> dict[str, float]:
+    """The frame's blocks of pixels shaded concurrently (``_shade_block``); after each, ``shown`` handed the output
+    rows it completes and ``progress`` told, which cancels the render by returning False (``Cancelled``). Returns
+    each block stage's seconds summed over the blocks."""
+    plan, block_pixels = job.plan, job.settings.block_pixels
+    blocks = len(range(0, plan.w * plan.h, block_pixels))
+    timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
+    cancelled = threading.Event()
+    ready = 0  # output rows shown so far
+    # one block more than cores: numpy's GIL-held moments of one block overlap another's embree and ufunc work
+    # (living room, 2 cores: 1.8 cores busy instead of 1.7)
+    with ThreadPoolExecutor(job.tracer.threads + 1) as pool:
+        for done, spent in enumerate(pool.map(partial(_shade_block, job, cancelled), range(blocks)), start=1):
+            for stage, seconds in spent.items():
+                timing[stage] += seconds
+            if shown is not None and not cancelled.is_set():  # blocks end in order: all before this are done
+                ready = _show(job, shown, ready, min(done * block_pixels, plan.w * plan.h))
+            if progress is not None and progress(done / blocks, "rendering") is False:
+                cancelled.set()
+    if cancelled.is_set():
+        raise Cancelled()
+    return timing
 
-        # one block more than cores: numpy's GIL-held moments of one block overlap another's embree and ufunc work
-        # (living room, 2 cores: 1.8 cores busy instead of 1.7)
-        with ThreadPoolExecutor(tracer.threads + 1) as pool:
-            for done, spent in enumerate(pool.map(shade_block, range(len(starts))), start=1):
-                for stage, seconds in spent.items():
-                    timing[stage] += seconds
-                if shown is not None and not cancelled.is_set():  # blocks end in order: all before this are done
-                    show(min(done * settings.block_pixels, w * h))
-                if progress is not None and progress(done / len(starts), "rendering") is False:
-                    cancelled.set()
-        if cancelled.is_set():
-            raise Cancelled()
-    finally:
-        if sequence is None:  # a sequence keeps its BVH for the next frame
-            tracer.close()
 
-    lit = None
-    if need_indirect:
-        t0 = time.perf_counter()
-        reflected = _divide(shine, shine_color)  # Glossy Indirect
-        if filtering:
-            def smooth(image, kind):
-                """Each lobe's light filtered among the pixels that have that lobe, guided by its own samples."""
-                count = guide_count[kind]
-                position = guide_position[kind] / np.maximum(count, 1)[:, None]
-                normal = guide_normal[kind] / np.maximum(np.linalg.norm(guide_normal[kind], axis=1, keepdims=True),
-                                                         1e-30)  # float32's
-                return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
-                                    (count > 0).reshape(h, w), pixel_footprint(cam, position).reshape(h, w),
-                                    settings.gather.interleave, settings.threads).reshape(-1, 3)
-            indirect = smooth(indirect, 0)
-            guard("filter", {P.DIFFUSE_INDIRECT: indirect})
-            if need_glossy:
-                reflected = smooth(reflected, 1)
-                guard("filter", {P.GLOSSY_INDIRECT: reflected})
-        lit = images[P.DIFFUSE_COLOR] * indirect + glossy_color * reflected  # the indirect light in Combined
-        images[P.COMBINED][:, :3] += lit
-        # the denoiser's, apart from the rest (``denoise_combined``)
-        lit = np.asarray(lit, np.float32) if settings.denoise and settings.denoise_indirect_apart else None
-        if P.GLOSSY_INDIRECT in want:
-            images[P.GLOSSY_INDIRECT] = reflected
-        del reflected
-        timing["filter"] = time.perf_counter() - t0
-        result.info["vpls"] = len(vpls)
-    if P.DIFFUSE_INDIRECT in want:
-        images[P.DIFFUSE_INDIRECT] = indirect if glazed is None else indirect + glazed
-    result.seconds.update(timing)
-    if P.NOISY_IMAGE in want:
-        images[P.NOISY_IMAGE] = images[P.COMBINED].copy()
-    if settings.denoise:
-        # the gathering's frame arrays go before the denoiser's scratch memory comes (1920 x 1080: 0.2 GB)
-        del indirect, shine, shine_color, glossy_color, guide_position, guide_normal, guide_count
-        trim_heap()
-        t0 = time.perf_counter()
-        denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
-                         images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings,
-                         "the image", settings.denoise_prefilter, settings.denoise_quality, settings.samples,
-                         None if lit is None else lit.reshape(h, w, 3))
-        result.seconds["denoise"] = time.perf_counter() - t0
-    result.rays, result.threads = tracer.rays_traced, tracer.threads
-    result.passes = {name: images[name].reshape(h, w, -1)[border].astype(np.float32) for name in want
-                     if name in settings.passes or name == P.COMBINED}
-    guard("output", result.passes)
+def _show(job: _Job, shown, ready: int, done_pixels: int) -> int:
+    """Hand ``shown`` the output rows after the first ``ready`` that the blocks done so far complete (their first
+    ``done_pixels`` pixels); returns the rows shown in all."""
+    plan, (rows_out, _) = job.plan, job.plan.border
+    rows = min(done_pixels // plan.w - rows_out.start, rows_out.stop - rows_out.start)
+    if rows <= ready:
+        return ready
+    band = job.frame.images[P.COMBINED].reshape(plan.h, plan.w, 4)[plan.border][ready:rows]
+    shown(ready, band.astype(np.float32))
+    return rows
+
+
+def _shade_block(job: _Job, cancelled: threading.Event, number: int) -> dict[str, float]:
+    """Everything for block ``number`` of the frame's pixels, its random numbers drawn from ``(seed, number)``: the
+    G-buffer, direct light, the gather and the passes. Blocks run concurrently (numpy and embree release the GIL).
+    Returns the seconds of each stage; nothing once the render is ``cancelled``."""
+    if cancelled.is_set():
+        return {}
+    settings, plan = job.settings, job.plan
+    start = number * settings.block_pixels
+    pixels = np.arange(start, min(start + settings.block_pixels, plan.w * plan.h))
+    rng = np.random.default_rng([settings.seed, number])
+    marks = {"start": time.perf_counter()}
+    gbuf = GBuffer.build(job.scene, job.tracer, plan.cam.frame_pixels(pixels), settings.samples, rng,
+                         plan.first_surfaces)
+    _guard(settings, "G-buffer", {P.DIFFUSE_COLOR: gbuf.surface.albedo, P.EMIT: gbuf.surface.emission})
+    lobe = GlossyLobe.of(gbuf.surface) if plan.need_glossy else None
+    marks["gbuffer"] = time.perf_counter()
+    direct, glossy, through = _direct(job, gbuf, lobe, rng)
+    marks["direct"] = time.perf_counter()
+    if plan.need_indirect:
+        _indirect(job, gbuf, lobe, rng, pixels)
+    marks["gather"] = time.perf_counter()
+    _accumulate(job, gbuf, lobe, rng, pixels, direct, glossy, through)
+    return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
+            "gather": marks["gather"] - marks["direct"]}
+
+
+def _direct(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.Generator):
+    """The direct light (K,3) at the block's hits, reflected diffusely and by ``lobe`` (checked at "direct light"),
+    and the light (K,3) of their shadow rays through glass (None unless the frame keeps it); zeros without direct
+    light. A pixel's light samples are scrambled nets, dealt to its camera samples in random order."""
+    surf, settings, lights = gbuf.surface, job.settings, job.lights
+    if not job.plan.need_direct:
+        return np.zeros_like(surf.albedo), np.zeros_like(surf.albedo), None
+    numbers = []
+    for needed in (bool(lights.local), lights.world is not None):  # a net for each kind of light
+        numbers += pixel_nets(gbuf.sample // gbuf.spp, settings.light_samples, rng) if needed else [None, None]
+    through = None if job.frame.glazed is None else np.zeros_like(surf.albedo)
+    direct, glossy = direct_light(surf, lights, job.tracer, settings.light_samples, rng, numbers=tuple(numbers),
+                                  glossy=lobe, through=through)
+    _guard(settings, "direct light", {P.DIFFUSE_DIRECT: direct, P.GLOSSY_DIRECT: glossy})
+    return direct, glossy, through
+
+
+def _indirect(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.Generator,
+              pixels: np.ndarray) -> None:
+    """The block's indirect light into the frame: the gathering samples of each lobe (a pixel's first diffuse
+    ones; ``glossy_samples`` of its glossy ones) gathered (``_gather_light``) and checked at "gather"; Diffuse
+    Indirect as Cycles' pass, the pixel's albedo-weighted mean light; the glossy light and its colour summed by
+    pixel; the filter's guides."""
+    frame, plan, surf, count = job.frame, job.plan, gbuf.surface, len(pixels)
+    # the gathering samples of each lobe; the diffuse passes see only diffuse surfaces
+    rows = gbuf.first(largest(surf.albedo) > 0.0, plan.gather_spp)
+    light = _gather_light(job, gbuf, rng, rows)
+    _guard(job.settings, "gather", {P.DIFFUSE_INDIRECT: light})
+    lobes = [rows]
+    if lobe is not None:
+        shiny = gbuf.first(surf.glossy, glossy_samples(gbuf, surf, lobe, plan.gather_spp))
+        reflected = _gather_light(job, gbuf, rng, shiny, lobe)
+        _guard(job.settings, "gather", {P.GLOSSY_INDIRECT: reflected})
+        at = gbuf.sample[shiny] // gbuf.spp
+        frame.shine[pixels] = group_sum(at, gbuf.tinted(reflected, shiny), count)
+        frame.shine_color[pixels] = group_sum(at, gbuf.tinted(lobe.color[shiny], shiny), count)
+        lobes.append(shiny)
+    at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
+    albedo = gbuf.tinted(surf.albedo[rows], rows)
+    frame.indirect[pixels] = _divide(group_sum(at, albedo * light, count), group_sum(at, albedo, count))
+    if plan.filtering:
+        _guide(frame, gbuf, pixels, lobes)
+
+
+def _gather_light(job: _Job, gbuf: GBuffer, rng: np.random.Generator, rows: np.ndarray,
+                  lobe: GlossyLobe | None = None) -> np.ndarray:
+    """(R,3) the indirect light at the G-buffer's hits ``rows``, reflected by a white Lambertian surface or, given
+    the block's ``lobe``, by its metallic lobe there: the VPLs summed (``_summed``) or, for a method that samples
+    its own lights, the mean of its gather's ``repeats`` sample pairs at each hit."""
+    surf, plan, placed = gbuf.surface, job.plan, job.placed
+    if plan.sampled is None:
+        glossy = None if lobe is None else lobe.take(rows)
+        return _summed(job, surf.take(rows), glossy, gbuf.pixel_of_hit[rows], rng)
+    many = np.repeat(rows, plan.repeats)
+    light = plan.sampled(surf.take(many), placed.vpls, placed.context, plan.placement, rng,
+                         glossy=None if lobe is None else lobe.take(many), pixel=gbuf.sample[many] // gbuf.spp)
+    return light.reshape(len(rows), plan.repeats, 3).mean(axis=1)
+
+
+def _summed(job: _Job, points, glossy: GlossyLobe | None, pixel: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """The VPLs' light at camera points (white Lambertian, or the metallic lobe ``glossy``): the interleaved gather,
+    each point with its pixel's VPL subset, plus the light that comes over metal (``paths.over_metal``); a metallic
+    lobe sees VPLs only over its paths."""
+    placed, width = job.placed, job.plan.cam.width
+    xy = np.stack([pixel % width, pixel // width], 1)  # the frame's tiles, border or not
+
+    def vpl_light(ends, owner):
+        return gather(ends, xy[owner], placed.vpls, job.tracer, job.settings.gather, placed.d_min, placed.permutation)
+    light = over_metal(points, glossy, job.scene, job.tracer, job.lights, rng, vpl_light, job.plan.bounces)
+    return light if glossy is not None else light + vpl_light(points, np.arange(len(points)))
+
+
+def _guide(frame: _Frame, gbuf: GBuffer, pixels: np.ndarray, lobes: list[np.ndarray]) -> None:
+    """The filter's guides of the block's pixels for each lobe (0 diffuse, 1 metallic) from the lobe's gathering
+    samples ``lobes[kind]``: their summed position and normal, and their number."""
+    surf = gbuf.surface
+    for kind, guides in enumerate(lobes):
+        local = gbuf.sample[guides] // gbuf.spp
+        frame.guide_position[kind, pixels] = group_sum(local, surf.position[guides], len(pixels))
+        frame.guide_normal[kind, pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
+        frame.guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
+
+
+def _accumulate(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.Generator, pixels: np.ndarray,
+                direct: np.ndarray, glossy: np.ndarray, through: np.ndarray | None) -> None:
+    """The block's camera samples into the frame's passes: Combined (direct light, emission and the lights seen,
+    and the world on an opaque film; the indirect light comes at the end, ``_filter``), Environment, the colour
+    passes, the direct light over its colour, the light through glass, Emit, Denoising Albedo, the data passes."""
+    settings, plan, frame, surf = job.settings, job.plan, job.frame, gbuf.surface
+    want, images = plan.want, frame.images
+    lamps = gbuf.lamps()  # the lights the camera sees
+    images[P.COMBINED][pixels, :3] = gbuf.splat(surf.albedo * direct + glossy + surf.emission, True) + lamps
+    images[P.COMBINED][pixels, 3] = gbuf.coverage if settings.film_transparent else 1.0
+    if plan.need_background:
+        background = gbuf.background(job.lights.world)
+        _guard(settings, "G-buffer", {P.ENVIRONMENT: background})
+        if not settings.film_transparent:
+            images[P.COMBINED][pixels, :3] += background
+        if P.ENVIRONMENT in want:
+            images[P.ENVIRONMENT][pixels] = background
+    images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo, True)
+    if P.DIFFUSE_DIRECT in want:
+        images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct, True),
+                                                   images[P.DIFFUSE_COLOR][pixels])
+    if through is not None:
+        _guard(settings, "direct light", {P.DIFFUSE_INDIRECT: through})
+        glass_light = gbuf.splat(surf.albedo * through, True)
+        images[P.COMBINED][pixels, :3] += glass_light
+        frame.glazed[pixels] = _divide(glass_light, images[P.DIFFUSE_COLOR][pixels])
+    if lobe is not None:
+        color = frame.glossy_color[pixels] = gbuf.splat(lobe.color, True)
+        for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy, True), color))):
+            if name in want:
+                images[name][pixels] = image
+    emitted = gbuf.splat(surf.emission, True) + lamps if {P.EMIT, P.DENOISING_ALBEDO} & want else None
+    if P.EMIT in want:
+        images[P.EMIT][pixels] = emitted
+    if P.DENOISING_ALBEDO in want:  # Cycles': the colour reflected, plus what is emitted and the world seen
+        albedo = images[P.DIFFUSE_COLOR][pixels] + frame.glossy_color[pixels] + emitted
+        images[P.DENOISING_ALBEDO][pixels] = albedo + (background if plan.need_background and
+                                                       not settings.film_transparent else 0.0)
+    if plan.data_wanted:
+        for name, image in data_passes(gbuf, job.scene, plan.data_wanted, job.tracer, rng, settings.mist,
+                                       settings.ao_distance).items():
+            images[name][pixels] = image
+
+
+def _filter(job: _Job, timing: dict[str, float]) -> np.ndarray | None:
+    """The gathered light added to Combined: Glossy Indirect the shine over its colour, each lobe's light filtered
+    when the plan filters (``_smooth``, checked at "filter"), the seconds in ``timing`` as "filter". Returns the
+    indirect light in Combined (W*H,3) when the denoiser takes it apart (``denoise_combined``), else None."""
+    settings, plan, frame = job.settings, job.plan, job.frame
+    t0 = time.perf_counter()
+    reflected = _divide(frame.shine, frame.shine_color)  # Glossy Indirect
+    if plan.filtering:
+        frame.indirect = _smooth(job, frame.indirect, 0)
+        _guard(settings, "filter", {P.DIFFUSE_INDIRECT: frame.indirect})
+        if plan.need_glossy:
+            reflected = _smooth(job, reflected, 1)
+            _guard(settings, "filter", {P.GLOSSY_INDIRECT: reflected})
+    lit = frame.images[P.DIFFUSE_COLOR] * frame.indirect + frame.glossy_color * reflected  # the light in Combined
+    frame.images[P.COMBINED][:, :3] += lit
+    lit = np.asarray(lit, np.float32) if settings.denoise and settings.denoise_indirect_apart else None
+    if P.GLOSSY_INDIRECT in plan.want:
+        frame.images[P.GLOSSY_INDIRECT] = reflected
+    timing["filter"] = time.perf_counter() - t0
+    return lit
+
+
+def _smooth(job: _Job, image: np.ndarray, kind: int) -> np.ndarray:
+    """Lobe ``kind``'s light (W*H,3) filtered among the pixels that have that lobe, guided by its own samples
+    (``gather.bilateral.deinterleave``)."""
+    frame, plan, h, w = job.frame, job.plan, job.plan.h, job.plan.w
+    count = frame.guide_count[kind]
+    position = frame.guide_position[kind] / np.maximum(count, 1)[:, None]
+    normal = frame.guide_normal[kind] / np.maximum(np.linalg.norm(frame.guide_normal[kind], axis=1, keepdims=True),
+                                                   1e-30)  # float32's
+    return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
+                        (count > 0).reshape(h, w), pixel_footprint(plan.cam, position).reshape(h, w),
+                        job.settings.gather.interleave, job.settings.threads).reshape(-1, 3)
+
+
+def _denoise(job: _Job, lit: np.ndarray | None, progress, result: RenderResult) -> None:
+    """Combined denoised in place (``denoise_combined``) with the indirect light ``lit`` apart, if given; the
+    gathering's frame arrays go first, before the denoiser's scratch memory comes (1920 x 1080: 0.2 GB). The
+    seconds in ``result`` as "denoise", a missing denoiser among its warnings."""
+    settings, plan, images = job.settings, job.plan, job.frame.images
+    job.frame.drop_gathering()
+    trim_heap()
+    t0 = time.perf_counter()
+    h, w = plan.h, plan.w
+    denoise_combined(images[P.COMBINED].reshape(h, w, -1), images[P.DENOISING_ALBEDO].reshape(h, w, 3),
+                     images[P.DENOISING_NORMAL].reshape(h, w, 3), settings.threads, progress, result.warnings,
+                     "the image", settings.denoise_prefilter, settings.denoise_quality, settings.samples,
+                     None if lit is None else lit.reshape(h, w, 3))
+    result.seconds["denoise"] = time.perf_counter() - t0
+
+
+def _collect(job: _Job, result: RenderResult) -> RenderResult:
+    """``result`` with the passes asked for and Combined, float32 and cut to the border (checked at "output"), and
+    the rays traced and threads used."""
+    plan = job.plan
+    result.rays, result.threads = job.tracer.rays_traced, job.tracer.threads
+    result.passes = {name: job.frame.images[name].reshape(plan.h, plan.w, -1)[plan.border].astype(np.float32)
+                     for name in plan.want if name in job.settings.passes or name == P.COMBINED}
+    _guard(job.settings, "output", result.passes)
     return result

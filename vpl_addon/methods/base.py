@@ -123,6 +123,9 @@ class Method:
     advance: Callable | None = None  # (state, context, settings, motion) -> (VirtualLights, info)
     gather: Callable | None = None  # the method's own gather of sampled lights; None: the summing gather
     gather_samples: Callable | None = None  # (settings, camera_samples) -> sample pairs per pixel, with ``gather``
+    # (settings, camera_samples) -> the settings a frame of that many camera samples in all places with (vbnl's
+    # automatic light paths made a number); None: the settings as they are
+    frame_settings: Callable | None = None
     view_independent: bool = False  # lights that ignore the camera: a frame where only it moved reuses them
     stable_lights: bool = False  # a light keeps its slot (and so its interleaving subset) from frame to frame
     uses_still: bool = False  # draws from the view in the sequence's still scene (a bake finds what moves first)

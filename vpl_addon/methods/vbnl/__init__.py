@@ -390,6 +390,12 @@ def gather_samples(settings, camera_samples: int) -> int:
     return settings.vbnl.sampling.samples or camera_samples
 
 
+def frame_settings(settings, camera_samples: int):
+    """``settings`` with the automatic light paths of a frame of ``camera_samples`` in all made a number
+    (``VBNLSettings.light_paths``)."""
+    return replace(settings, vbnl=replace(settings.vbnl, photons=settings.vbnl.light_paths(camera_samples)))
+
+
 def gather(surface, lights, context, settings, rng, glossy=None, pixel=None):
     return virtual_light_sampling.gather(surface, lights, context.scene, context.tracer, context.lights, rng,
                                          settings.vbnl.sampling, context.max_bounces, glossy, pixel)
@@ -400,4 +406,4 @@ METHOD = Method(
     "vbnl", "Virtual Blue Noise Lighting", "Li et al. 2022: lights placed from the camera in a blue-noise pattern, "
                                            "lit by photon splitting, sampled with MIS and path extension",
     place, VBNLSettings, start=start, advance=advance, gather=gather, gather_samples=gather_samples,
-    uses_still=True, reuses_light_paths=True, budget="samples")
+    frame_settings=frame_settings, uses_still=True, reuses_light_paths=True, budget="samples")
