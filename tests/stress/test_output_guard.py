@@ -1,7 +1,7 @@
 """The guard at the output (issue 8, item 3): a non-finite or negative value made by any stage fails the render
 with a message naming the method, the stage and the pass; it is never zeroed away. Bad values are injected by a
 method that places broken VPLs and by stages wrapped to spoil their own output."""
-import types
+import dataclasses
 
 import numpy as np
 import pytest
@@ -29,7 +29,8 @@ def test_a_method_placing_broken_vpls_is_named_with_stage_place(monkeypatch, val
         vpls, info = METHODS["ir"].place(context, settings)
         vpls.intensity[0, 1] = value
         return vpls, info
-    monkeypatch.setitem(METHODS, "broken", types.SimpleNamespace(place=place))
+    monkeypatch.setitem(METHODS, "broken", dataclasses.replace(METHODS["ir"], name="broken", place=place, start=None,
+                                                               advance=None))
     with pytest.raises(BadOutput, match=r"method 'broken', stage 'place': VPL intensity: "):
         render(room(), small_settings("broken"))
 

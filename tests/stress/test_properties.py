@@ -78,18 +78,20 @@ def test_fixed_seed_gives_bitwise_identical_passes(method, seed, light):
 @given(method=st.sampled_from(VPL_METHODS), albedo=st.floats(0.0, 1.0), bounces=st.integers(1, 4),
        size=st.tuples(st.floats(0.2, 5.0), st.floats(0.2, 5.0), st.floats(0.2, 5.0)))
 def test_energy_never_above_the_furnace_bound(method, albedo, bounces, size):
-    """A closed box of any proportions whose walls emit Le = 1 and reflect albedo a: the mean Diffuse Indirect
-    never exceeds the analytic a + ... + a^B (10 % for noise), nor Diffuse Direct the emitted Le."""
+    """A closed box of any proportions whose walls emit Le = 1 and reflect albedo a: the mean Diffuse Indirect of
+    four seeds never exceeds the analytic a + ... + a^B (10 % for noise), nor Diffuse Direct the emitted Le. One
+    render of 256 VPLs is too noisy for that margin in a thin box (ir in a 0.24 x 1.59 x 2.81 box, a = 0.56, three
+    bounces: 0.85-1.23 of the bound over six seeds, 1.00 at 4096 VPLs); four of 1024 stay within 2 % of it."""
     glowing = Materials.make([{"name": "glowing", "base_color": (albedo,) * 3, "emission": (1.0, 1.0, 1.0)}])
     stretch = np.asarray(size) / 2.0
     scene = Scene.build(box([-1, -1, 0], [1, 1, 2]) * stretch, glowing, [],
                         look_at(np.array([0.5, -0.9, 1.0]) * stretch, np.array([0, 0.5, 0.6]) * stretch),
                         material=np.ones(12, int), max_bounces=bounces)
-    result = render(scene, small_settings(method, placement=budget(256)))
-    assert tally("furnace of random proportions", result) == 0
+    results = [render(scene, small_settings(method, placement=budget(1024), seed=seed)) for seed in range(4)]
+    assert sum(tally("furnace of random proportions", result) for result in results) == 0
     bound = sum(albedo ** k for k in range(1, bounces + 1))
-    assert result.passes["Diffuse Indirect"].mean() <= 1.1 * bound + 1e-6
-    assert result.passes["Diffuse Direct"].mean() <= 1.1
+    assert np.mean([result.passes["Diffuse Indirect"].mean() for result in results]) <= 1.1 * bound + 1e-6
+    assert max(result.passes["Diffuse Direct"].mean() for result in results) <= 1.1
 
 
 @FEW
