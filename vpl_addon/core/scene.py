@@ -12,14 +12,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field, replace
 from functools import cached_property
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .camera import Camera
-
-if TYPE_CHECKING:  # an annotation only: the core layer imports nothing above it (``lights`` builds on ``core``)
-    from ..lights import Light
 
 
 # inputs an image can drive (``mix``: a Mix Shader's factor, ``Materials.mix_other``)
@@ -217,7 +213,7 @@ class Scene:
     object_id: np.ndarray  # (T,) int32 index into object_names
     object_names: list[str]
     materials: Materials
-    lights: list[Light]
+    lights: list  # of ``lights.Light`` (named, not imported: the lights layer builds on core)
     camera: Camera
     world: np.ndarray = field(default_factory=lambda: np.zeros(3, np.float32))  # background radiance RGB
     environment: Environment | None = None  # the world as a map (then ``world`` is not used)
