@@ -9,10 +9,7 @@ import math
 import os
 
 from ...vpl_addon.core.denoise import PREFILTERS, QUALITIES
-from ...vpl_addon.methods import METHODS, NONE, PATH_REUSE, MethodSettings
-from ...vpl_addon.methods.base import exposed
-
-PLACEMENT = exposed(MethodSettings)  # the placement settings users see, each a flag of render and bake
+from ...vpl_addon.methods import METHODS, NONE, PATH_REUSE, PLACEMENT
 
 
 class UserError(Exception):
@@ -20,6 +17,7 @@ class UserError(Exception):
 
 
 def open_blend(path: str):
+    """The scene of the .blend at ``path``, opened in this process; ``UserError`` if it is missing or unreadable."""
     import bpy
     if not os.path.isfile(path):
         raise UserError(f"no such file: {path}")
@@ -31,6 +29,7 @@ def open_blend(path: str):
 
 
 def ensure_registered():
+    """The extension registered in this process (the command line runs without Blender's add-on loading)."""
     import bpy
     if not hasattr(bpy.types.Scene, "vpl_gi"):
         from ... import register

@@ -7,8 +7,7 @@ import bpy
 
 from ...vpl_addon.core.denoise import CLEAN_GUIDES
 from ...vpl_addon.gather.summing import GatherSettings
-from ...vpl_addon.methods import METHODS, NONE, MethodSettings
-from ...vpl_addon.methods.base import exposed
+from ...vpl_addon.methods import METHODS, NONE, PLACEMENT, MethodSettings
 from ...vpl_addon.paths.data_passes import Mist
 from ...vpl_addon.progressive import ViewportSettings
 from ...vpl_addon.render import RenderSettings
@@ -19,8 +18,6 @@ MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}  # th
 
 METHOD_ITEMS = tuple((m.name, m.label, m.description) for m in METHODS.values()) + (
     (NONE, "None", "Direct light only: no indirect light is computed"),)
-
-PLACEMENT = exposed(MethodSettings)  # every placement setting users see: the shared ones, then each method's
 
 
 def _property(setting):

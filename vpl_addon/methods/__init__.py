@@ -11,7 +11,7 @@ from __future__ import annotations
 import importlib
 from dataclasses import field, make_dataclass
 
-from .base import Method, MethodContext, option
+from .base import Method, MethodContext, exposed, option
 
 REGISTERED = (
     "vbnl",
@@ -58,6 +58,10 @@ MethodSettings = make_dataclass(
     SHARED + [(m.name, m.settings, field(default_factory=m.settings)) for m in METHODS.values() if m.settings])
 MethodSettings.__module__ = __name__  # where pickle finds it
 MethodSettings.__doc__ = "What placing lights takes: the shared settings, and each method's own under its name."
+
+# every placement setting users see, the shared ones first: what the Blender properties, the panel and the command
+# line's flags are made from
+PLACEMENT = exposed(MethodSettings)
 
 
 def place(name: str, context: MethodContext, settings):
