@@ -31,7 +31,7 @@ Base Color, a Glass BSDF slab of that Color its square, (0.058, 0.229, 0.920)).
 from __future__ import annotations
 
 import math
-from dataclasses import replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -246,6 +246,108 @@ def _checker(node, m: np.ndarray, t: np.ndarray, fac: bool) -> tuple[np.ndarray,
     return texels, (k * m[0, 0], k * m[0, 1], cell(t[0]) / 2, k * m[1, 0], k * m[1, 1], cell(t[1]) / 2)
 
 
+class _Unsupported(Exception):
+    """A node on a texture chain that the engine does not read, and why (a phrase that follows "is not supported"):
+    ``MaterialTable._map`` warns and the input keeps its value."""
+
+
+@dataclass
+class _Chain:
+    """A texture chain followed back from the input it feeds (``_followed``): the output reached and what the nodes
+    on the way make of its value."""
+    out: object  # the output socket reached: an image's, a checker's or a colour attribute's; None past constants
+    normal: bool  # a Normal Map node is still to come (the chain feeds a Normal input)
+    channel: int = -1  # -1 the colour, 0..2 one channel (Separate Color), 3 the alpha
+    factor: np.ndarray = field(default_factory=lambda: np.ones(3))  # the constants the Multiplies bring
+    strength: float = 1.0  # the Normal Map's Strength
+    uv_name: str | None = None  # the UV map the Normal Map (else a UV Map node) names; None the render UV map
+    cutoff: float = -1.0  # alpha clip threshold; negative: none
+    attribute: str | None = None  # the colour attribute an image is multiplied by
+
+    def factors(self) -> tuple:
+        """``factor`` as ``TextureMap.factor``: three floats."""
+        return tuple(float(v) for v in np.broadcast_to(self.factor, 3))
+
+
+def _followed(socket, label: str, normal: bool) -> _Chain:
+    """The chain from ``socket`` (of the input ``label``; ``normal``: a Normal input) back through the nodes the
+    engine carries along to the image, checker or colour attribute feeding it, or to constants; _Unsupported at a
+    node it does not read."""
+    chain = _Chain(_source(socket), normal)
+    while chain.out is not None:
+        node = chain.out.node
+        if node.type in ("TEX_IMAGE", "TEX_CHECKER") or (_attribute(chain.out) is not None and chain.attribute is None):
+            break
+        _past(chain, node, label)
+    return chain
+
+
+def _past(chain: _Chain, node, label: str):
+    """``chain`` moved past ``node``, one step toward its texture: a Normal Map's strength and UV map, a Separate
+    Color's channel, a Multiply's factor (or colour attribute, ``_past_colour_multiply``), an alpha clip's cutoff."""
+    if chain.normal and node.type == "NORMAL_MAP":
+        s = _constant(node.inputs["Strength"])
+        if node.space != "TANGENT" or s is None:
+            raise _Unsupported(node, " (only tangent space with a constant Strength)")
+        chain.strength, chain.uv_name, chain.normal = s, node.uv_map or None, False
+        chain.out = _source(node.inputs["Color"])
+    elif node.type in ("SEPARATE_COLOR", "SEPRGB") and getattr(node, "mode", "RGB") == "RGB" \
+            and chain.out.name in CHANNELS and chain.channel < 0:
+        chain.channel = CHANNELS[chain.out.name]
+        chain.out = _source(node.inputs[0])
+    elif node.type == "MIX" and node.data_type == "RGBA" and node.blend_type == "MULTIPLY" \
+            and not node.clamp_result:
+        _past_colour_multiply(chain, node)
+    elif label == "Alpha" and chain.cutoff < 0 and (chain.factor == 1.0).all() and _threshold(node) is not None:
+        chain.cutoff, chain.out = _threshold(node)
+    elif node.type == "MATH" and node.operation == "MULTIPLY" and not node.use_clamp:
+        linked = [s for s in node.inputs[:2] if _source(s) is not None]
+        if len(linked) != 1:
+            raise _Unsupported(node, " (only a Multiply of an image by a constant)")
+        chain.factor = chain.factor * _constant(node.inputs[1] if _same(linked[0], node.inputs[0]) else node.inputs[0])
+        chain.out = _source(linked[0])
+    else:
+        raise _Unsupported(node, "")
+
+
+def _past_colour_multiply(chain: _Chain, node):
+    """``chain`` moved past a Mix Color (Multiply): an image times a colour attribute (factor 1) takes the attribute
+    along, one image or colour attribute times a constant colour that colour as a factor."""
+    f, a, b = _constant(node.inputs[0]), node.inputs[6], node.inputs[7]
+    linked = [s for s in (a, b) if _source(s) is not None]
+    colours = [s for s in linked if _attribute(_source(s)) is not None]
+    if f == 1.0 and len(linked) == 2 and colours and chain.attribute is None:  # image x colour attribute
+        chain.attribute = _attribute(_source(colours[0]))
+        chain.out = _source(b if _same(colours[0], a) else a)
+        return
+    if f is None or len(linked) != 1:
+        raise _Unsupported(node, " (only a Multiply of one image or colour attribute by a constant colour, or of an "
+                                 "image by a colour attribute)")
+    other = np.array(_constant(b if _same(linked[0], a) else a)[:3])
+    chain.factor = chain.factor * (1.0 - f + f * other)
+    chain.out = _source(linked[0])
+
+
+def _coordinates(node, chain: _Chain) -> tuple[np.ndarray, np.ndarray]:
+    """(m, t) of texture ``node``'s lookup point p = m (u, v, 0) + t, from the UVs its Vector reads (the render UV
+    map, a UV Map node's, which ``chain.uv_name`` takes where no Normal Map named one, or Texture Coordinate's UV)
+    through a Mapping node; _Unsupported for other coordinates."""
+    m, t, via = np.eye(3), np.zeros(3), _source(node.inputs["Vector"])
+    if via is None and node.type == "TEX_CHECKER":
+        raise _Unsupported(node, " at its default Generated coordinates (only UV coordinates)")
+    if via is not None and via.node.type == "MAPPING":
+        mapping = _mapping(via.node)
+        if mapping is None:
+            raise _Unsupported(via.node, " (only Point or Texture type with constant inputs)")
+        (m, t), via = mapping, _source(via.node.inputs["Vector"])
+    if via is not None:
+        if via.node.type == "UVMAP" and not via.node.from_instancer:
+            chain.uv_name = chain.uv_name or via.node.uv_map or None
+        elif not (via.node.type == "TEX_COORD" and via.name == "UV"):
+            raise _Unsupported(via.node, f" as the {node.bl_label}'s Vector (only UV coordinates)")
+    return m, t
+
+
 class MaterialTable:
     """Rows of every material met (``Materials.make``), in first-seen order, the images they read and the UV map
     each material's textures use (None: the render UV map)."""
@@ -321,107 +423,73 @@ class MaterialTable:
 
     def _map(self, material, label: str, socket, normal: bool = False) -> TextureMap | None:
         """The TextureMap feeding ``socket`` (None with a warning when the chain is not one the engine reads)."""
-        out, channel, factor, strength = _source(socket), -1, np.ones(3), 1.0
-        uv_name, cutoff, attribute = None, -1.0, None
-
-        def unsupported(node, why=""):
+        try:
+            chain = _followed(socket, label, normal)
+            if chain.out is None:
+                return None  # a chain of constants: the input's value stands
+            return self._texture_map(material, chain)
+        except _Unsupported as unread:
+            node, why = unread.args
             self.warnings.append(f"material {material.name!r}: {label} from {node.bl_label!r} ({node.name}) is not "
                                  f"supported{why}; using the input's value")
             return None
 
-        while out is not None:
-            node = out.node
-            if node.type in ("TEX_IMAGE", "TEX_CHECKER") or (_attribute(out) is not None and attribute is None):
-                break
-            if normal and node.type == "NORMAL_MAP":
-                s = _constant(node.inputs["Strength"])
-                if node.space != "TANGENT" or s is None:
-                    return unsupported(node, " (only tangent space with a constant Strength)")
-                strength, uv_name, normal = s, node.uv_map or None, False
-                out = _source(node.inputs["Color"])
-            elif node.type in ("SEPARATE_COLOR", "SEPRGB") and getattr(node, "mode", "RGB") == "RGB" \
-                    and out.name in CHANNELS and channel < 0:
-                channel = CHANNELS[out.name]
-                out = _source(node.inputs[0])
-            elif node.type == "MIX" and node.data_type == "RGBA" and node.blend_type == "MULTIPLY" \
-                    and not node.clamp_result:
-                f, a, b = _constant(node.inputs[0]), node.inputs[6], node.inputs[7]
-                linked = [s for s in (a, b) if _source(s) is not None]
-                colours = [s for s in linked if _attribute(_source(s)) is not None]
-                if f == 1.0 and len(linked) == 2 and colours and attribute is None:  # image x colour attribute
-                    attribute = _attribute(_source(colours[0]))
-                    out = _source(b if _same(colours[0], a) else a)
-                    continue
-                if f is None or len(linked) != 1:
-                    return unsupported(node, " (only a Multiply of one image or colour attribute by a constant "
-                                             "colour, or of an image by a colour attribute)")
-                other = np.array(_constant(b if _same(linked[0], a) else a)[:3])
-                factor = factor * (1.0 - f + f * other)
-                out = _source(linked[0])
-            elif label == "Alpha" and cutoff < 0 and (factor == 1.0).all() and _threshold(node) is not None:
-                cutoff, out = _threshold(node)
-            elif node.type == "MATH" and node.operation == "MULTIPLY" and not node.use_clamp:
-                linked = [s for s in node.inputs[:2] if _source(s) is not None]
-                if len(linked) != 1:
-                    return unsupported(node, " (only a Multiply of an image by a constant)")
-                factor = factor * _constant(node.inputs[1] if _same(linked[0], node.inputs[0]) else node.inputs[0])
-                out = _source(linked[0])
-            else:
-                return unsupported(node)
-        if out is None:
-            return None  # a chain of constants: the input's value stands
-        node = out.node
-        if normal:
-            return unsupported(node, " without a Normal Map node")
+    def _texture_map(self, material, chain: _Chain) -> TextureMap | None:
+        """The TextureMap of a chain (``_followed``) that ends at an image, a checker or a colour attribute; None
+        for an Image Texture without an image or one that does not load."""
+        out, node = chain.out, chain.out.node
+        if chain.normal:
+            raise _Unsupported(node, " without a Normal Map node")
         if node.type not in ("TEX_IMAGE", "TEX_CHECKER"):  # a colour attribute alone
             self._attributes.append(_attribute(out))
-            return TextureMap(-1, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)), vertex=True)
+            return TextureMap(-1, chain.channel, chain.factors(), vertex=True)
         if node.type == "TEX_IMAGE" and node.image is None:
             return None
         if node.type == "TEX_IMAGE" and node.projection != "FLAT":
-            return unsupported(node, f" with {node.projection.lower()} projection")
+            raise _Unsupported(node, f" with {node.projection.lower()} projection")
         if out.name == "Alpha":
-            if channel >= 0:
-                return unsupported(node, " (a channel of its alpha)")
-            channel = 3
-        m, t, via = np.eye(3), np.zeros(3), _source(node.inputs["Vector"])
-        if via is None and node.type == "TEX_CHECKER":
-            return unsupported(node, " at its default Generated coordinates (only UV coordinates)")
-        if via is not None and via.node.type == "MAPPING":
-            mapping = _mapping(via.node)
-            if mapping is None:
-                return unsupported(via.node, " (only Point or Texture type with constant inputs)")
-            (m, t), via = mapping, _source(via.node.inputs["Vector"])
-        if via is not None:
-            if via.node.type == "UVMAP" and not via.node.from_instancer:
-                uv_name = uv_name or via.node.uv_map or None
-            elif not (via.node.type == "TEX_COORD" and via.name == "UV"):
-                return unsupported(via.node, f" as the {node.bl_label}'s Vector (only UV coordinates)")
+            if chain.channel >= 0:
+                raise _Unsupported(node, " (a channel of its alpha)")
+            chain.channel = 3
+        m, t = _coordinates(node, chain)
         if node.type == "TEX_CHECKER":
-            checker = _checker(node, m, t, fac=out.name != "Color")  # Fac (Factor in Blender 5)
-            if checker is None:
-                return unsupported(node, " (only constant colours and scale, on UVs mapped within their plane)")
-            texels, uv = checker
-            index = self._texture(("checker", texels.tobytes()), texels)
-            extension, closest, srgb = "REPEAT", True, False
-            self._image_names.append(node.name)
+            texture = self._checker_texture(node, m, t, fac=out.name != "Color")  # Fac (Factor in Blender 5)
         else:
-            extension = node.extension if node.extension in ("REPEAT", "EXTEND", "CLIP") else "REPEAT"
-            if extension != node.extension:
-                self.warnings.append(f"material {material.name!r}: image {node.image.name!r} extension "
-                                     f"{node.extension.title()} is read as Repeat")
-            index = self._image(node.image, material, alpha=channel == 3)
-            if index is None:
-                return None
-            uv = (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1])
-            closest, srgb = node.interpolation == "Closest", self.encoded[index]
-            self._image_names.append(node.image.name)
-        self._uv_names.append(uv_name)
-        if attribute is not None:
-            self._attributes.append(attribute)
-        return TextureMap(index, channel, tuple(float(v) for v in np.broadcast_to(factor, 3)),
-                          tuple(float(v) for v in uv), extension, closest, float(strength), float(cutoff),
-                          vertex=attribute is not None, srgb=srgb)
+            texture = self._image_texture(material, node, m, t, alpha=chain.channel == 3)
+        if texture is None:
+            return None
+        index, uv, extension, closest, srgb = texture
+        self._uv_names.append(chain.uv_name)
+        if chain.attribute is not None:
+            self._attributes.append(chain.attribute)
+        return TextureMap(index, chain.channel, chain.factors(), tuple(float(v) for v in uv), extension, closest,
+                          float(chain.strength), float(chain.cutoff), vertex=chain.attribute is not None, srgb=srgb)
+
+    def _checker_texture(self, node, m: np.ndarray, t: np.ndarray, fac: bool) -> tuple:
+        """(texture index, UV transform, extension, closest, sRGB) of a Checker Texture at p = m (u, v, 0) + t: its
+        2x2 texel image (``_checker``), read Closest and Repeat."""
+        checker = _checker(node, m, t, fac)
+        if checker is None:
+            raise _Unsupported(node, " (only constant colours and scale, on UVs mapped within their plane)")
+        texels, uv = checker
+        index = self._texture(("checker", texels.tobytes()), texels)
+        self._image_names.append(node.name)
+        return index, uv, "REPEAT", True, False
+
+    def _image_texture(self, material, node, m: np.ndarray, t: np.ndarray, alpha: bool) -> tuple | None:
+        """(texture index, UV transform, extension, closest, sRGB) of an Image Texture at p = m (u, v, 0) + t (an
+        extension the engine does not read as Repeat, with a warning); None when its image does not load."""
+        extension = node.extension if node.extension in ("REPEAT", "EXTEND", "CLIP") else "REPEAT"
+        if extension != node.extension:
+            self.warnings.append(f"material {material.name!r}: image {node.image.name!r} extension "
+                                 f"{node.extension.title()} is read as Repeat")
+        index = self._image(node.image, material, alpha=alpha)
+        if index is None:
+            return None
+        uv = (m[0, 0], m[0, 1], t[0], m[1, 0], m[1, 1], t[1])
+        closest, srgb = node.interpolation == "Closest", self.encoded[index]
+        self._image_names.append(node.image.name)
+        return index, uv, extension, closest, srgb
 
     def _read(self, material) -> dict:
         row = {"name": material.name}

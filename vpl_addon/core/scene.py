@@ -99,59 +99,23 @@ class Materials:
         (``maps``: input name -> TextureMap; ``texture``: an image index for Base Color alone); missing keys take
         defaults: a grey diffuse without a specular layer."""
         rows = [{"name": "default_surface"}] + list(rows)  # Cycles' name of its fallback (in Cryptomatte)
-        maps: list[TextureMap] = []
-        map_of = {name: np.full(len(rows), -1, np.int32) for name in INPUTS}
-        for i, r in enumerate(rows):
-            given = dict(r.get("maps", {}))
-            if r.get("texture", -1) >= 0:
-                given.setdefault("base_color", TextureMap(int(r["texture"])))
-            for name, tmap in given.items():
-                if name not in map_of:
-                    raise ValueError(f"material {r['name']!r}: no input {name!r} takes a texture ({INPUTS})")
-                if tmap not in maps:
-                    maps.append(tmap)
-                map_of[name][i] = maps.index(tmap)
-
-        def col(key, default, dtype=np.float32):
-            return np.array([r.get(key, default) for r in rows], dtype=dtype)
-
+        maps, map_of = _texture_maps(rows)
         m = Materials(
             names=[r["name"] for r in rows],
-            base_color=col("base_color", (0.8, 0.8, 0.8)).reshape(-1, 3),
-            roughness=col("roughness", 0.5),
-            metallic=col("metallic", 0.0),
-            emission=col("emission", (0.0, 0.0, 0.0)).reshape(-1, 3),
-            specular_tint=col("specular_tint", (1.0, 1.0, 1.0)).reshape(-1, 3),
-            ior=col("ior", 1.5),
-            specular=col("specular", 0.0),
-            alpha=col("alpha", 1.0),
+            base_color=_column(rows, "base_color", (0.8, 0.8, 0.8)).reshape(-1, 3),
+            roughness=_column(rows, "roughness", 0.5),
+            metallic=_column(rows, "metallic", 0.0),
+            emission=_column(rows, "emission", (0.0, 0.0, 0.0)).reshape(-1, 3),
+            specular_tint=_column(rows, "specular_tint", (1.0, 1.0, 1.0)).reshape(-1, 3),
+            ior=_column(rows, "ior", 1.5),
+            specular=_column(rows, "specular", 0.0),
+            alpha=_column(rows, "alpha", 1.0),
             maps=maps, map_of=map_of,
-            transmission=col("transmission", 0.0),
-            pass_index=col("pass_index", 0, np.int32),
+            transmission=_column(rows, "transmission", 0.0),
+            pass_index=_column(rows, "pass_index", 0, np.int32),
+            **_mixing_columns(rows),
         )
-        own = np.array(["metal_color" in r for r in rows])
-        if own.any():
-            metal = np.clip(np.nan_to_num(col("metal_color", (0.0, 0.0, 0.0)).reshape(-1, 3)), 0.0, 1.0)
-            m.metal_color = np.where(own[:, None], metal, np.float32(-1.0))
-        if any("fresnel_mix" in r for r in rows):
-            m.fresnel_mix = np.clip(np.nan_to_num(col("fresnel_mix", 0.0), nan=0.0, posinf=0.0), 0.0, 1e3)
-        if any(r.get("mix_other", -1) >= 0 for r in rows):
-            other = col("mix_other", -1, np.int32)
-            m.mix_other = np.where((other > 0) & (other < len(rows)), other, -1).astype(np.int32)
-            m.mix_factor = np.clip(np.nan_to_num(col("mix_factor", 0.0)), 0.0, 1.0)
-        for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha,
-                  m.transmission):
-            np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
-        np.nan_to_num(m.ior, copy=False, nan=1.5, posinf=1.5, neginf=1.5)
-        np.clip(m.base_color, 0.0, 1.0, out=m.base_color)
-        np.clip(m.roughness, 0.0, 1.0, out=m.roughness)
-        np.clip(m.metallic, 0.0, 1.0, out=m.metallic)
-        np.clip(m.specular_tint, 0.0, 1.0, out=m.specular_tint)
-        np.clip(m.alpha, 0.0, 1.0, out=m.alpha)
-        np.clip(m.transmission, 0.0, 1.0, out=m.transmission)
-        np.clip(m.ior, 1e-3, 1e3, out=m.ior)
-        np.maximum(m.specular, 0.0, out=m.specular)
-        np.maximum(m.emission, 0.0, out=m.emission)
+        _clean(m)
         return m
 
     @property
@@ -243,52 +207,22 @@ class Scene:
               asset_names=None) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
-        n = len(tri)
-        material = np.zeros(n, np.int32) if material is None else np.asarray(material, np.int32).reshape(n)
-        object_id = np.zeros(n, np.int32) if object_id is None else np.asarray(object_id, np.int32).reshape(n)
         object_names = list(object_names or ["object"])
-        normals = None if normals is None else np.asarray(normals, np.float64).reshape(n, 3, 3)
-        uvs = np.zeros((n, 3, 2)) if uvs is None else np.asarray(uvs, np.float64).reshape(n, 3, 2)
-        tangents = None if tangents is None else np.asarray(tangents, np.float64).reshape(n, 3, 4)
-        colors = None if colors is None else np.asarray(colors, np.float64).reshape(n, 3, 3)
-
-        ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-        area2 = np.linalg.norm(ng, axis=1)
-        scale = np.abs(tri).max(axis=(1, 2)) if n else np.zeros(0)
-        with np.errstate(invalid="ignore"):
-            keep = np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(area2) & (area2 > (scale * 1e-6) ** 2)
-        dropped = {}
-        for oid, count in zip(*np.unique(object_id[~keep], return_counts=True)):
-            dropped[object_names[oid] if 0 <= oid < len(object_names) else str(oid)] = int(count)
+        material, object_id, normals, uvs, tangents, colors = _per_triangle(len(tri), material, object_id, normals,
+                                                                            uvs, tangents, colors)
+        keep, ng, area2 = _traceable(tri)
+        dropped = _dropped(object_id[~keep], object_names)
         tri, ng, area2, uvs, material, object_id = (a[keep] for a in (tri, ng, area2, uvs, material, object_id))
-        tangents = None if tangents is None else tangents[keep]
-        colors = None if colors is None else colors[keep]
+        normals, tangents, colors = (None if a is None else a[keep] for a in (normals, tangents, colors))
         ng = ng / area2[:, None]
-        if normals is None:
-            sn = np.repeat(ng[:, None, :], 3, axis=1)
-        else:
-            sn = normals[keep]
-            length = np.linalg.norm(sn, axis=2, keepdims=True)
-            with np.errstate(invalid="ignore", divide="ignore"):
-                sn = sn / length
-            bad = ~(np.isfinite(sn).all(axis=2) & (length[..., 0] > 1e-12))
-            sn = np.where(bad[..., None], ng[:, None, :], sn)
+        sn = _shading_normals(normals, ng)
         uvs = np.nan_to_num(uvs, nan=0.0, posinf=0.0, neginf=0.0)
         material = np.where((material >= 0) & (material < len(materials.names)), material, 0).astype(np.int32)
         textures = [np.maximum(np.nan_to_num(np.asarray(t, np.float32), nan=0.0, posinf=0.0), 0.0)
                     for t in textures]
         materials = _usable_maps(materials, textures)
-        if not any(t.vertex for t in materials.maps):
-            colors = None
-        elif colors is None:  # Cycles reads a missing colour attribute as black
-            colors = np.zeros((len(tri), 3, 3))
-        else:
-            colors = np.maximum(np.nan_to_num(colors, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
-        if (materials.mapped("normal") >= 0).any():
-            tangents = _tangents(tri, ng, uvs, tangents)
-        else:
-            tangents = None
-
+        colors = _colors(colors, materials, len(tri))
+        tangents = _tangents(tri, ng, uvs, tangents) if (materials.mapped("normal") >= 0).any() else None
         return Scene(triangles=tri.astype(np.float32), normals=sn.astype(np.float32), uvs=uvs.astype(np.float32),
                      material=material, object_id=object_id.astype(np.int32), object_names=object_names,
                      materials=materials, lights=[l for l in lights if l.is_active], camera=camera,
@@ -340,6 +274,121 @@ class Scene:
             return -np.ones(3), np.ones(3)
         pts = self.triangles.reshape(-1, 3).astype(np.float64)
         return pts.min(axis=0), pts.max(axis=0)
+
+
+def _texture_maps(rows: list[dict]) -> tuple[list[TextureMap], dict[str, np.ndarray]]:
+    """(the distinct texture maps of ``rows``, input name -> (M,) index into them per row, -1 for none): each row's
+    ``maps`` and its ``texture`` (an image for Base Color alone, where ``maps`` gives none); ValueError for an input
+    no texture drives."""
+    maps: list[TextureMap] = []
+    map_of = {name: np.full(len(rows), -1, np.int32) for name in INPUTS}
+    for i, r in enumerate(rows):
+        given = dict(r.get("maps", {}))
+        if r.get("texture", -1) >= 0:
+            given.setdefault("base_color", TextureMap(int(r["texture"])))
+        for name, tmap in given.items():
+            if name not in map_of:
+                raise ValueError(f"material {r['name']!r}: no input {name!r} takes a texture ({INPUTS})")
+            if tmap not in maps:
+                maps.append(tmap)
+            map_of[name][i] = maps.index(tmap)
+    return maps, map_of
+
+
+def _column(rows: list[dict], key: str, default, dtype=np.float32) -> np.ndarray:
+    """The rows' values of ``key``, ``default`` where a row has none."""
+    return np.array([r.get(key, default) for r in rows], dtype=dtype)
+
+
+def _mixing_columns(rows: list[dict]) -> dict[str, np.ndarray]:
+    """The ``Materials`` columns only some rows give, by name, each where at least one row gives it: metal_color
+    (clipped to [0, 1], -1 for the rows whose metallic lobe is their Base Color), fresnel_mix (an IOR in [0, 1e3])
+    and mix_other with mix_factor (a row out of the table mixes with none; the factor in [0, 1]), NaN read as 0."""
+    columns = {}
+    own = np.array(["metal_color" in r for r in rows])
+    if own.any():
+        metal = np.clip(np.nan_to_num(_column(rows, "metal_color", (0.0, 0.0, 0.0)).reshape(-1, 3)), 0.0, 1.0)
+        columns["metal_color"] = np.where(own[:, None], metal, np.float32(-1.0))
+    if any("fresnel_mix" in r for r in rows):
+        columns["fresnel_mix"] = np.clip(np.nan_to_num(_column(rows, "fresnel_mix", 0.0), nan=0.0, posinf=0.0), 0.0,
+                                         1e3)
+    if any(r.get("mix_other", -1) >= 0 for r in rows):
+        other = _column(rows, "mix_other", -1, np.int32)
+        columns["mix_other"] = np.where((other > 0) & (other < len(rows)), other, -1).astype(np.int32)
+        columns["mix_factor"] = np.clip(np.nan_to_num(_column(rows, "mix_factor", 0.0)), 0.0, 1.0)
+    return columns
+
+
+def _clean(m: Materials):
+    """Makes the table's inputs usable, in place: NaN and infinities 0 (the IOR's 1.5); colours, roughness,
+    metallic, alpha and transmission clipped to [0, 1], the IOR to [1e-3, 1e3]; specular and emission at least 0."""
+    for a in (m.base_color, m.roughness, m.metallic, m.emission, m.specular_tint, m.specular, m.alpha,
+              m.transmission):
+        np.nan_to_num(a, copy=False, nan=0.0, posinf=0.0, neginf=0.0)
+    np.nan_to_num(m.ior, copy=False, nan=1.5, posinf=1.5, neginf=1.5)
+    np.clip(m.base_color, 0.0, 1.0, out=m.base_color)
+    np.clip(m.roughness, 0.0, 1.0, out=m.roughness)
+    np.clip(m.metallic, 0.0, 1.0, out=m.metallic)
+    np.clip(m.specular_tint, 0.0, 1.0, out=m.specular_tint)
+    np.clip(m.alpha, 0.0, 1.0, out=m.alpha)
+    np.clip(m.transmission, 0.0, 1.0, out=m.transmission)
+    np.clip(m.ior, 1e-3, 1e3, out=m.ior)
+    np.maximum(m.specular, 0.0, out=m.specular)
+    np.maximum(m.emission, 0.0, out=m.emission)
+
+
+def _per_triangle(n: int, material, object_id, normals, uvs, tangents, colors) -> tuple:
+    """The per-triangle inputs of ``Scene.build`` as arrays of ``n`` triangles: material and object ids (0 where not
+    given), normals, tangents and colours (None where not given) and UVs (0 where not given)."""
+    material = np.zeros(n, np.int32) if material is None else np.asarray(material, np.int32).reshape(n)
+    object_id = np.zeros(n, np.int32) if object_id is None else np.asarray(object_id, np.int32).reshape(n)
+    normals = None if normals is None else np.asarray(normals, np.float64).reshape(n, 3, 3)
+    uvs = np.zeros((n, 3, 2)) if uvs is None else np.asarray(uvs, np.float64).reshape(n, 3, 2)
+    tangents = None if tangents is None else np.asarray(tangents, np.float64).reshape(n, 3, 4)
+    colors = None if colors is None else np.asarray(colors, np.float64).reshape(n, 3, 3)
+    return material, object_id, normals, uvs, tangents, colors
+
+
+def _traceable(tri: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """((T,) bool the triangles that can be traced: finite corners and an area that is not zero against the size of
+    their coordinates, (T,3) their normals from the winding, (T,) those normals' lengths: twice the areas)."""
+    ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    area2 = np.linalg.norm(ng, axis=1)
+    scale = np.abs(tri).max(axis=(1, 2)) if len(tri) else np.zeros(0)
+    with np.errstate(invalid="ignore"):
+        keep = np.isfinite(tri).all(axis=(1, 2)) & np.isfinite(area2) & (area2 > (scale * 1e-6) ** 2)
+    return keep, ng, area2
+
+
+def _dropped(object_id: np.ndarray, object_names: list[str]) -> dict[str, int]:
+    """Object name (its id where it has none) -> how many of the dropped triangles, of objects ``object_id``, are
+    its."""
+    dropped = {}
+    for oid, count in zip(*np.unique(object_id, return_counts=True)):
+        dropped[object_names[oid] if 0 <= oid < len(object_names) else str(oid)] = int(count)
+    return dropped
+
+
+def _shading_normals(normals: np.ndarray | None, ng: np.ndarray) -> np.ndarray:
+    """(T,3,3) unit per-corner shading normals: the given ``normals`` made unit, the geometric normal ``ng`` where
+    one is missing, not finite or zero (every corner's without ``normals``)."""
+    if normals is None:
+        return np.repeat(ng[:, None, :], 3, axis=1)
+    length = np.linalg.norm(normals, axis=2, keepdims=True)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        sn = normals / length
+    bad = ~(np.isfinite(sn).all(axis=2) & (length[..., 0] > 1e-12))
+    return np.where(bad[..., None], ng[:, None, :], sn)
+
+
+def _colors(colors: np.ndarray | None, materials: Materials, count: int) -> np.ndarray | None:
+    """(T,3,3) per-corner colour attributes of ``count`` triangles, non-finite and negative values 0 and black where
+    none is given (as Cycles reads a missing one); None when no map of ``materials`` reads them."""
+    if not any(t.vertex for t in materials.maps):
+        return None
+    if colors is None:
+        return np.zeros((count, 3, 3))
+    return np.maximum(np.nan_to_num(colors, nan=0.0, posinf=0.0, neginf=0.0), 0.0)
 
 
 def _usable_maps(materials: Materials, textures: list[np.ndarray]) -> Materials:

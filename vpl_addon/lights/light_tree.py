@@ -101,69 +101,27 @@ class LightTree:
         self.cut_rows, self.unit, self.scale = np.zeros((0, 12), np.float32), 1.0, 1.0
         if not placed:
             return
-        center = np.array([lights[i].bounds()[0] for i in placed], np.float64).reshape(-1, 3)
-        radius = np.array([lights[i].bounds()[1] for i in placed], np.float64)
-        cones = [lights[i].orientation() for i in placed]
-        axis = np.array([c[0] for c in cones], np.float64).reshape(-1, 3)
-        theta_o = np.array([c[1] for c in cones], np.float64)
-        theta_e = np.array([c[2] for c in cones], np.float64)
-        intensity = np.array([lights[i].intensity_estimate() for i in placed], np.float64)
-        planar = np.array([lights[i].planar for i in placed], np.float64)
-        # per node: centre, radius, axis, theta_o, theta_e, intensity, children (-1 at a leaf), light (-1 inside)
-        nodes = [None]
-        stack = [(np.arange(len(placed)), 0)]
-        while stack:
-            members, at = stack.pop()
-            if len(members) == 1:  # a leaf keeps its light's own sphere
-                i = members[0]
-                nodes[at] = (center[i], radius[i], axis[i], theta_o[i], theta_e[i], intensity[i], planar[i], (-1, -1),
-                             placed[i])
-                continue
-            # an inner node: the sphere around its lights' box
-            lo = (center[members] - radius[members, None]).min(axis=0)
-            hi = (center[members] + radius[members, None]).max(axis=0)
-            cone = _cones(np.ones((1, len(members)), bool), axis[members], theta_o[members], theta_e[members])
-            children = (len(nodes), len(nodes) + 1)
-            nodes += [None, None]
-            nodes[at] = (0.5 * (lo + hi), 0.5 * np.linalg.norm(hi - lo), cone[0][0], cone[1][0], cone[2][0],
-                         intensity[members].sum(), 0.0, children, -1)
-            if len(placed) > cut and len(members) > HEURISTIC_LEAST:
-                left = _split(members, center, radius, axis, theta_o, theta_e, intensity)
-            else:  # a few lights, or every leaf in the cut (no sample walks the tree then): halves
-                left = _halves(center[members])
-            stack += [(members[left], children[0]), (members[~left], children[1])]
+        self._tabulate(_nodes(_leaf_bounds([lights[i] for i in placed]), placed, cut))
+        self.path = _paths(self.children, self.light, len(lights))
+        self.cut = self._cut(cut)
+        self.points = bool((self.table[self.cut, 3] == 0.0).all() and (self.table[self.cut, 8] <= -1.0).all())
+        self.cut_rows, self.unit, self.scale = _cut_rows(self.table, self.cut, self.origin)
+        self._entries(placed)
+
+    def _tabulate(self, nodes):
+        """The nodes (``_nodes``) as arrays: per node its ``children`` and ``light``, and its ``table`` row, gathered
+        at once: centre, radius^2, intensity, axis, cos and sin theta_o, cos theta_e, 1 at the leaf of a light that
+        emits from a plane through its centre to one side (``Light.planar``)."""
         center, radius, axis, spread, emit, intensity, plane, self.children, self.light = map(np.array, zip(*nodes))
-        # one row per node, gathered at once: centre, radius^2, intensity, axis, cos and sin theta_o, cos theta_e,
-        # 1 at the leaf of a light that emits from a plane through its centre to one side (``Light.planar``)
         self.table = np.column_stack([center, radius ** 2, intensity, axis, np.cos(spread), np.sin(spread),
                                       np.cos(emit), plane])
         self.oriented = bool((spread < np.pi).any())  # else every node emits everywhere: no cone to test
         self.origin = center[0]
-        # the path from the root to each light: its nodes by depth, -1 past its leaf
-        parent = np.full(len(nodes), -1)
-        inner = np.nonzero(self.light < 0)[0]
-        parent[self.children[inner, 0]], parent[self.children[inner, 1]] = inner, inner
-        chains = {}
-        for leaf in np.nonzero(self.light >= 0)[0]:
-            chain = [leaf]
-            while parent[chain[-1]] >= 0:
-                chain.append(parent[chain[-1]])
-            chains[self.light[leaf]] = chain[::-1]
-        self.path = np.full((len(lights), max(map(len, chains.values()))), -1, np.int64)
-        for light, chain in chains.items():
-            self.path[light, :len(chain)] = chain
-        self.cut = self._cut(cut)
-        self.points = bool((self.table[self.cut, 3] == 0.0).all() and (self.table[self.cut, 8] <= -1.0).all())
-        # the cut's rows in single precision, lengths in units of the root's radius about its centre, intensities
-        # in units of the largest (with the distant lights' irradiance in the same unit over the radius^2)
-        self.unit = 1.0 / self.table[0, 3] ** 0.5 if self.table[0, 3] > 0.0 else 1.0
-        rows = self.table[self.cut].copy()
-        rows[:, 0:3] = (rows[:, 0:3] - self.origin) * self.unit
-        rows[:, 3] *= self.unit ** 2
-        self.scale = 1.0 / max(rows[:, 4].max(), 1e-300)
-        rows[:, 4] *= self.scale * self.unit ** 2
-        self.cut_rows = rows.astype(np.float32)
-        in_cut = np.full(len(nodes), -1)
+
+    def _entries(self, placed):
+        """Each placed light's first choice (``entry``: the node of the cut above it) and the depth of that node on
+        its path (``below``); the distant lights' choices after the cut's."""
+        in_cut = np.full(len(self.children), -1)
         in_cut[self.cut] = np.arange(len(self.cut))
         on_path = np.where(self.path >= 0, in_cut[self.path], -1)[placed]
         self.below[placed] = np.argmax(on_path >= 0, axis=1)
@@ -307,6 +265,89 @@ class LightTree:
             left = self._left_share(pair, p[rows], n[rows])
             chance[rows] *= np.where(node == pair[:, 1], 1.0 - left, left)
         return (1.0 - FLOOR) * chance + FLOOR / self.count
+
+
+def _leaf_bounds(lights):
+    """(centre (L,3), radius, axis (L,3), theta_o, theta_e, intensity, planar (L,)) of lights with a position: each
+    one's bounding sphere (``Light.bounds``), orientation cone (``Light.orientation``), intensity estimate and 1 where
+    it emits from a plane (``Light.planar``)."""
+    center = np.array([light.bounds()[0] for light in lights], np.float64).reshape(-1, 3)
+    radius = np.array([light.bounds()[1] for light in lights], np.float64)
+    cones = [light.orientation() for light in lights]
+    axis = np.array([c[0] for c in cones], np.float64).reshape(-1, 3)
+    theta_o = np.array([c[1] for c in cones], np.float64)
+    theta_e = np.array([c[2] for c in cones], np.float64)
+    intensity = np.array([light.intensity_estimate() for light in lights], np.float64)
+    planar = np.array([light.planar for light in lights], np.float64)
+    return center, radius, axis, theta_o, theta_e, intensity, planar
+
+
+def _nodes(leaves, placed, cut):
+    """The tree's nodes over the lights ``placed`` (their indices in the list) of bounds ``leaves``
+    (``_leaf_bounds``), the root first, built top down: per node its centre, radius, axis, theta_o, theta_e,
+    intensity, planar, children ((-1, -1) at a leaf) and light (-1 inside). With more lights than ``cut`` a node of
+    more than ``HEURISTIC_LEAST`` lights is split where the surface area orientation heuristic is lowest
+    (``_split``), any other in halves."""
+    center, bounds = leaves[0], leaves[:6]  # the inner nodes and the heuristic read all but planar
+    nodes = [None]
+    stack = [(np.arange(len(placed)), 0)]
+    while stack:
+        members, at = stack.pop()
+        if len(members) == 1:  # a leaf keeps its light's own sphere
+            i = members[0]
+            nodes[at] = tuple(a[i] for a in leaves) + ((-1, -1), placed[i])
+            continue
+        children = (len(nodes), len(nodes) + 1)
+        nodes += [None, None]
+        nodes[at] = _inner_node(members, *bounds) + (children, -1)
+        if len(placed) > cut and len(members) > HEURISTIC_LEAST:
+            left = _split(members, *bounds)
+        else:  # a few lights, or every leaf in the cut (no sample walks the tree then): halves
+            left = _halves(center[members])
+        stack += [(members[left], children[0]), (members[~left], children[1])]
+    return nodes
+
+
+def _inner_node(members, center, radius, axis, theta_o, theta_e, intensity):
+    """(centre, radius, axis, theta_o, theta_e, intensity, planar) of an inner node over the lights ``members``: the
+    sphere around their spheres' box, the cone bounding their cones (``_cones``), their total intensity; never
+    planar."""
+    lo = (center[members] - radius[members, None]).min(axis=0)
+    hi = (center[members] + radius[members, None]).max(axis=0)
+    cone = _cones(np.ones((1, len(members)), bool), axis[members], theta_o[members], theta_e[members])
+    return (0.5 * (lo + hi), 0.5 * np.linalg.norm(hi - lo), cone[0][0], cone[1][0], cone[2][0],
+            intensity[members].sum(), 0.0)
+
+
+def _paths(children, light, count):
+    """(count, depth) the path from the root to each of ``count`` lights: its nodes by depth, -1 past its leaf
+    (all -1 for a light without a leaf, a distant one), from the nodes' ``children`` and ``light``."""
+    parent = np.full(len(children), -1)
+    inner = np.nonzero(light < 0)[0]
+    parent[children[inner, 0]], parent[children[inner, 1]] = inner, inner
+    chains = {}
+    for leaf in np.nonzero(light >= 0)[0]:
+        chain = [leaf]
+        while parent[chain[-1]] >= 0:
+            chain.append(parent[chain[-1]])
+        chains[light[leaf]] = chain[::-1]
+    path = np.full((count, max(map(len, chains.values()))), -1, np.int64)
+    for i, chain in chains.items():
+        path[i, :len(chain)] = chain
+    return path
+
+
+def _cut_rows(table, cut, origin):
+    """(the rows of the cut's nodes in single precision, the unit of length, the unit of intensity): lengths in units
+    of the root's radius about ``origin`` (its centre), intensities in units of the largest (the distant lights'
+    irradiance takes the same unit over the radius^2)."""
+    unit = 1.0 / table[0, 3] ** 0.5 if table[0, 3] > 0.0 else 1.0
+    rows = table[cut].copy()
+    rows[:, 0:3] = (rows[:, 0:3] - origin) * unit
+    rows[:, 3] *= unit ** 2
+    scale = 1.0 / max(rows[:, 4].max(), 1e-300)
+    rows[:, 4] *= scale * unit ** 2
+    return rows.astype(np.float32), unit, scale
 
 
 def _split(members, center, radius, axis, theta_o, theta_e, intensity):

@@ -29,12 +29,22 @@ gather's visibility all see the same holes and panes; it also reports which rays
 Cycles counts as indirect (a transmission bounce)."""
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 
 from ..core.color import luminance
 from .microfacet import alpha as microfacet_alpha
 from .microfacet import dielectric_fresnel, sample
 from .textures import at_points
+
+
+class _Faces(NamedTuple):
+    """What the rays that reach glass in ``Cutouts.passes`` see of its faces."""
+    fresnel: np.ndarray  # (G,) F
+    ior: np.ndarray  # (G,) the IOR, relative to the side the ray comes from where the glass is a solid's surface
+    normal: np.ndarray | None  # (G,3) the normal F is of; None for a thin sheet (the geometric normal, either side)
+    inside: np.ndarray | None  # (G,) bool whether the ray leaves the solid; None for a thin sheet
 
 
 class Cutouts:
@@ -97,51 +107,46 @@ class Cutouts:
         alpha = self.opacity(prim, u, v)
         mat = self._scene.material[prim]
         glass = np.nonzero(self._glass[mat])[0] if not solid_glass else np.zeros(0, np.int64)
-        clear = np.zeros(len(prim))
-        onward = np.array(d, np.float64)
+        clear, face = np.zeros(len(prim)), None
         x = rng.random(len(prim))
         if len(glass):
-            ior = self._scene.materials.ior[mat[glass]].astype(np.float64)
-            cos = np.einsum("ij,ij->i", ng[glass], d[glass])
-            if bend:
-                inside = cos >= 0.0  # leaving the solid through its face
-                normal = self._normals(prim[glass], u[glass], v[glass], ng[glass])
-                ior = np.where(inside, 1.0 / ior, ior)
-                rough = np.nonzero(self._roughness[mat[glass]] > 0.0)[0]
-                if len(rough):
-                    normal[rough] = self._microfacets(normal[rough], d[glass[rough]], mat[glass[rough]], rng)
-                cos = np.einsum("ij,ij->i", normal, d[glass])
-            fresnel = dielectric_fresnel(cos, ior)
-            clear[glass] = (1.0 - fresnel) * (self._clear if tinted else self._grey)[mat[glass]]
+            face = self._faces(prim[glass], u[glass], v[glass], d[glass], ng[glass], mat[glass], rng, bend)
+            clear[glass] = (1.0 - face.fresnel) * (self._clear if tinted else self._grey)[mat[glass]]
         hole = x >= alpha
         through = ~hole & (x < alpha * clear)
-        weight = None
-        if tinted and self.weighs:
-            weight = np.ones((len(prim), 3))
-            weight[through] = self._tint[mat[through]]
-            if len(glass):  # the glass's stops reflect F of the light, not the 1 - T that stops
-                stop = ~hole[glass] & ~through[glass]
-                weight[glass[stop]] = (fresnel[stop] / np.maximum(1.0 - clear[glass[stop]], 1e-300))[:, None]
+        weight = self._weights(mat, glass, hole, through, clear, face) if tinted and self.weighs else None
         if not bend or not len(glass):
-            return hole | through, through, onward, weight
-        rows = np.nonzero(through[glass])[0]
-        bent, ok = _refracted(d[glass[rows]], normal[rows], ior[rows], ng[glass[rows]])
-        onward[glass[rows]] = bent
-        through[glass[rows[~ok]]] = False
-        # inside, the rays the face reflects stay in the solid (toward its other faces) rather than end there
-        back = np.nonzero(inside & ~through[glass] & ~hole[glass]
-                          & (x[glass] < alpha[glass] * (clear[glass] + fresnel)))[0]
-        turned = d[glass[back]] - 2.0 * np.einsum("ij,ij->i", d[glass[back]], normal[back])[:, None] * normal[back]
-        kept = np.sign(np.einsum("ij,ij->i", turned, ng[glass[back]])) < 0.0  # still inside
-        onward[glass[back[kept]]] = turned[kept]
-        on = hole | through
-        on[glass[back[kept]]] = True
-        if weight is not None:
-            weight[glass[rows[~ok]]] = 1.0  # a ray a bent normal sent back did not cross: a mirror
-            weight[glass[back]] = 1.0  # reflected inside (or back out) with probability F
-            absorbed = inside & ~hole[glass] & (x[glass] >= alpha[glass] * (clear[glass] + fresnel))
-            weight[glass[absorbed]] = 0.0  # inside, a ray that neither crosses nor reflects is absorbed
-        return on, through, onward, weight
+            return hole | through, through, np.array(d, np.float64), weight
+        return _through_solid(d, ng, glass, face, x, alpha, clear, hole, through, weight)
+
+    def _faces(self, prim, u, v, d, ng, mat, rng, bend: bool) -> _Faces:
+        """What rays ``d`` that reach glass at (prim, u, v) of materials ``mat`` see of its faces: without ``bend``
+        F at the IOR about the geometric normal ``ng`` (a thin sheet, either side); with it F of the IOR relative to
+        the side the ray comes from, about the interpolated normal or a rough glass's microfacet normal
+        (``_microfacets``)."""
+        ior = self._scene.materials.ior[mat].astype(np.float64)
+        cos = np.einsum("ij,ij->i", ng, d)
+        normal = inside = None
+        if bend:
+            inside = cos >= 0.0  # leaving the solid through its face
+            normal = self._normals(prim, u, v, ng)
+            ior = np.where(inside, 1.0 / ior, ior)
+            rough = np.nonzero(self._roughness[mat] > 0.0)[0]
+            if len(rough):
+                normal[rough] = self._microfacets(normal[rough], d[rough], mat[rough], rng)
+            cos = np.einsum("ij,ij->i", normal, d)
+        return _Faces(dielectric_fresnel(cos, ior), ior, normal, inside)
+
+    def _weights(self, mat, glass, hole, through, clear, face) -> np.ndarray:
+        """(N,3) the colour weight of ``tinted`` rays: the tint of the coloured glass a ray goes through (over its
+        largest channel), F / (1 - T) where a ray stops at glass (``face.fresnel``: the mirror ``surface.shade`` makes
+        of it reflects F, not the 1 - T that stops), 1 elsewhere."""
+        weight = np.ones((len(mat), 3))
+        weight[through] = self._tint[mat[through]]
+        if len(glass):
+            stop = ~hole[glass] & ~through[glass]
+            weight[glass[stop]] = (face.fresnel[stop] / np.maximum(1.0 - clear[glass[stop]], 1e-300))[:, None]
+        return weight
 
     def _microfacets(self, normal, d, mat, rng) -> np.ndarray:
         """(N,3) microfacet normals of rough glass for rays ``d`` at points of smooth ``normal`` (either side):
@@ -156,6 +161,33 @@ class Cutouts:
         n *= np.where(np.einsum("ij,ij->i", n, ng) < 0.0, -1.0, 1.0)[:, None]
         length = np.linalg.norm(n, axis=1, keepdims=True)
         return np.where(length > 1e-12, n / np.maximum(length, 1e-300), ng)
+
+
+def _through_solid(d, ng, glass, face, x, alpha, clear, hole, through, weight):
+    """``Cutouts.passes`` with ``bend``, from what a thin sheet lets through (``hole``, ``through``, ``weight``):
+    the rays through glass refract (``_refracted``; one a bent normal sends back to its own side stops at the face,
+    a mirror), and inside the solid (``face.inside``) the rays the face reflects go on reflected
+    toward its other faces while those that neither cross nor reflect are absorbed (weight 0)."""
+    fresnel, ior, normal, inside = face
+    onward = np.array(d, np.float64)
+    rows = np.nonzero(through[glass])[0]
+    bent, ok = _refracted(d[glass[rows]], normal[rows], ior[rows], ng[glass[rows]])
+    onward[glass[rows]] = bent
+    through[glass[rows[~ok]]] = False
+    reach = alpha[glass] * (clear[glass] + fresnel)  # x below it: the ray crosses the face or the face reflects it
+    # inside, the rays the face reflects stay in the solid (toward its other faces) rather than end there
+    back = np.nonzero(inside & ~through[glass] & ~hole[glass] & (x[glass] < reach))[0]
+    turned = d[glass[back]] - 2.0 * np.einsum("ij,ij->i", d[glass[back]], normal[back])[:, None] * normal[back]
+    kept = np.sign(np.einsum("ij,ij->i", turned, ng[glass[back]])) < 0.0  # still inside
+    onward[glass[back[kept]]] = turned[kept]
+    on = hole | through
+    on[glass[back[kept]]] = True
+    if weight is not None:
+        weight[glass[rows[~ok]]] = 1.0  # a ray a bent normal sent back did not cross: a mirror
+        weight[glass[back]] = 1.0  # reflected inside (or back out) with probability F
+        absorbed = inside & ~hole[glass] & (x[glass] >= reach)
+        weight[glass[absorbed]] = 0.0  # inside, a ray that neither crosses nor reflects is absorbed
+    return on, through, onward, weight
 
 
 def _facing(n: np.ndarray, d: np.ndarray) -> np.ndarray:

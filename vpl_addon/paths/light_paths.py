@@ -36,15 +36,8 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         return VirtualLights.empty()
     rng = LatinHypercube(rng)
     glossy = scene.materials.glossy
-    light = None
-    if start is None and record is not None:
-        origins, dirs, power, light = lights.emit(count, rng, light_prob, with_light=True)
-    elif start is None:
-        origins, dirs, power = lights.emit(count, rng, light_prob)
-    else:
-        origins, dirs, power, path, first_bounce = start
-    if start is None:
-        path, first_bounce = np.arange(first_path, first_path + count), 1
+    origins, dirs, power, path, first_bounce, light = _first_segments(lights, count, rng, light_prob, first_path,
+                                                                      start, record is not None)
     found = []
     for bounce in range(first_bounce, max_bounces + 1):
         if len(origins) == 0:
@@ -54,43 +47,77 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         hits = start_hits if bounce == first_bounce and start_hits is not None else \
             tracer.intersect(origins, dirs, tinted=True)
         rows = np.nonzero(hits.hit)[0]
-        surf = shade(scene, dirs, hits, rows)
+        surf, path = shade(scene, dirs, hits, rows), path[rows]
         incident = power[rows] if hits.tint is None else power[rows] * hits.tint[rows]  # past coloured glass
-        lit = np.nonzero(largest(surf.albedo) > 0.0)[0]  # no VPL where nothing is reflected diffusely (metal)
-        lights_left = len(lit)
-        if lights_left == len(rows):  # every hit: no copies
-            lit = slice(None)
         diffuse = surf.albedo * arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
-        found.append(VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi,
-                                   np.full(lights_left, bounce, np.int32), np.full(lights_left, STANDARD, np.int8),
-                                   path[rows][lit]))
+        found.append(_left_lights(surf, incident, diffuse, bounce, path))
         if bounce == max_bounces:
             break
-        choose_diffuse = np.clip(largest(surf.albedo), 0.0, 1.0)
-        u = rng.random(len(rows))
-        keep = u < choose_diffuse
-        new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
-        weight = diffuse[keep] / choose_diffuse[keep, None]
-        if glossy:
-            shiny = np.nonzero(~keep & surf.glossy)[0]
-            lobe = GlossyLobe.of(surf, shiny)
-            choose_glossy = np.minimum(largest(lobe.color), 1.0 - choose_diffuse[shiny])
-            shiny_keep = u[shiny] < choose_diffuse[shiny] + choose_glossy
-            lobe = lobe.take(shiny_keep)
-            dirs_g, f_cos_pdf, _ = lobe.sample(rng.random(shiny_keep.sum()), rng.random(shiny_keep.sum()),
-                                               np.arange(shiny_keep.sum()))
-            bouncing = np.concatenate([np.nonzero(keep)[0], shiny[shiny_keep]])
-            new_dirs = np.concatenate([new_dirs, dirs_g])
-            weight = np.concatenate([weight, f_cos_pdf / choose_glossy[shiny_keep, None]])
-        else:
-            bouncing = np.nonzero(keep)[0]
-        leaves = (dot(new_dirs, surf.geometric_normal[bouncing]) > 0.0) & (largest(weight) > 0.0)
-        sel = bouncing[leaves]  # below the true surface: absorbed
-        dirs = new_dirs[leaves]
-        power = incident[sel] * weight[leaves]
+        sel, dirs, weight = _scattered(surf, diffuse, rng, glossy)
+        power = incident[sel] * weight
         origins = tracer.offset_origin(surf.position[sel], surf.geometric_normal[sel])
-        path = path[rows][sel]
+        path = path[sel]
     return VirtualLights.concat(found)
+
+
+def _first_segments(lights, count, rng, light_prob, first_path, start, with_light):
+    """(origins, dirs, power, path ids, first bounce, light) of the paths' first segments: ``start``'s, or ``count``
+    emitted by ``lights`` (numbered from ``first_path``, bounce 1); ``light``, each emitted path's light, only
+    ``with_light`` (else None)."""
+    if start is not None:
+        origins, dirs, power, path, first_bounce = start
+        return origins, dirs, power, path, first_bounce, None
+    light = None
+    if with_light:
+        origins, dirs, power, light = lights.emit(count, rng, light_prob, with_light=True)
+    else:
+        origins, dirs, power = lights.emit(count, rng, light_prob)
+    return origins, dirs, power, np.arange(first_path, first_path + count), 1, light
+
+
+def _left_lights(surf, incident, diffuse, bounce, path):
+    """The standard VPLs a bounce leaves at the hits ``surf`` of paths ``path``: one at each that reflects diffusely
+    (none on metal), with the smooth normal and the ``incident`` power times the ``diffuse`` reflectance / pi."""
+    lit = np.nonzero(largest(surf.albedo) > 0.0)[0]
+    lights_left = len(lit)
+    if lights_left == len(path):  # every hit: no copies
+        lit = slice(None)
+    return VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi,
+                         np.full(lights_left, bounce, np.int32), np.full(lights_left, STANDARD, np.int8), path[lit])
+
+
+def _scattered(surf, diffuse, rng, glossy: bool):
+    """(the hits whose paths go on, their directions, the weight f cos / pdf each carries) past a bounce at ``surf``
+    (``diffuse`` the diffuse reflectance): Russian roulette keeps a path on the diffuse lobe with probability its
+    largest albedo channel (a cosine-weighted direction) and, with a ``glossy`` lobe, on the metallic one with its
+    largest Glossy Color channel (``_glossy_bounces``); a direction below the true surface is absorbed."""
+    choose_diffuse = np.clip(largest(surf.albedo), 0.0, 1.0)
+    u = rng.random(len(choose_diffuse))
+    keep = u < choose_diffuse
+    new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
+    weight = diffuse[keep] / choose_diffuse[keep, None]
+    bouncing = np.nonzero(keep)[0]
+    if glossy:
+        shiny, dirs_g, weight_g = _glossy_bounces(surf, keep, u, choose_diffuse, rng)
+        bouncing = np.concatenate([bouncing, shiny])
+        new_dirs = np.concatenate([new_dirs, dirs_g])
+        weight = np.concatenate([weight, weight_g])
+    leaves = (dot(new_dirs, surf.geometric_normal[bouncing]) > 0.0) & (largest(weight) > 0.0)
+    return bouncing[leaves], new_dirs[leaves], weight[leaves]
+
+
+def _glossy_bounces(surf, keep, u, choose_diffuse, rng):
+    """(hits, directions, f cos / pdf) of the paths that bounce off the metallic lobe (``GlossyLobe``, visible
+    normals): of those the diffuse lobe does not keep (``keep``), each glossy hit with probability its largest Glossy
+    Color channel (at most what the diffuse lobe leaves) of the same roulette number ``u``."""
+    shiny = np.nonzero(~keep & surf.glossy)[0]
+    lobe = GlossyLobe.of(surf, shiny)
+    choose_glossy = np.minimum(largest(lobe.color), 1.0 - choose_diffuse[shiny])
+    shiny_keep = u[shiny] < choose_diffuse[shiny] + choose_glossy
+    lobe = lobe.take(shiny_keep)
+    dirs, f_cos_pdf, _ = lobe.sample(rng.random(shiny_keep.sum()), rng.random(shiny_keep.sum()),
+                                     np.arange(shiny_keep.sum()))
+    return shiny[shiny_keep], dirs, f_cos_pdf / choose_glossy[shiny_keep, None]
 
 
 def trace_until(scene, tracer, lights, target: int, rng, max_bounces: int, light_prob=None, record=None):
