@@ -114,8 +114,9 @@ class _Writer:
 
     def __init__(self):
         self.arrays: dict[str, np.ndarray] = {}
-        self.numbers: dict[int, int] = {}  # id of a list, tuple, dict, array or record met -> its number
-        self.held = []  # those values, alive while their ids are in ``numbers``
+        # id of a list, tuple, dict, array or record met -> its number (each is reachable from the value packed,
+        # so no id is reused while it packs)
+        self.numbers: dict[int, int] = {}
 
     def tree(self, value):
         if value is None or type(value) in (bool, int, str):
@@ -127,7 +128,6 @@ class _Writer:
         if id(value) in self.numbers:
             return {"ref": self.numbers[id(value)]}
         self.numbers[id(value)] = len(self.numbers)
-        self.held.append(value)
         if type(value) is np.ndarray:
             return {"array": self._array(value)}
         if type(value) in (list, tuple):
