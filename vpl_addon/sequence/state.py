@@ -42,7 +42,8 @@ from .persisted import pack, record, unpack
 # missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas. 3: vbnl's
 # photon lights keep their light tree (``PhotonLights.tree``). 4: the state keeps the objects that move in the sequence
 # (``SequenceState.animated``). 5: vbnl's photon lights keep their reach (``PhotonLights.reach``); the state keeps
-# its tracers' centre (``SequenceState.center``). 6: records of arrays and JSON (``persisted``) instead of a pickle.
+# its tracers' centre (``SequenceState.center``). 6: the state is records of arrays and JSON (``persisted``); lights
+# keep their camera visibility as a field.
 STATE_FORMAT = 6
 
 

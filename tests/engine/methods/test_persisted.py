@@ -88,11 +88,19 @@ def test_another_class_of_a_registered_name_is_refused():
     assert RECORDS["VirtualLights"].kind.__module__ == "vpl_addon.gather.virtual_lights"
 
 
-def npz(tree, **arrays) -> bytes:
+def npz(tree, save=np.savez, **arrays) -> bytes:
     """An npz file of ``tree`` (JSON) and ``arrays`` as another program could write it."""
     buffer = io.BytesIO()
-    np.savez(buffer, **{TREE: np.frombuffer(json.dumps({"header": {}, "value": tree}).encode(), np.uint8)}, **arrays)
+    save(buffer, **{TREE: np.frombuffer(json.dumps({"header": {}, "value": tree}).encode(), np.uint8)}, **arrays)
     return buffer.getvalue()
+
+
+def damaged_stream() -> bytes:
+    """A compressed npz whose array's deflate stream is damaged (zlib, not the zip reader, finds it)."""
+    data = bytearray(npz({"array": "a0"}, np.savez_compressed, a0=np.random.default_rng(0).random(1000)))
+    at = data.find(b"a0.npy") + 30  # past the member's name and its zip64 field, inside its data
+    data[at:at + 8] = bytes(8)
+    return bytes(data)
 
 
 @pytest.mark.parametrize("data", [
@@ -104,6 +112,7 @@ def npz(tree, **arrays) -> bytes:
     npz({"tuple": [{"ref": 0}]}),  # a tuple inside itself
     npz({"scalar": "a0"}, a0=np.zeros(2)),
     npz({"dict": [1, 2]}), npz({"float": "1e999x"}), npz([1]), npz({"list": []}, a0=np.array([{"x": 1}], object)),
+    damaged_stream(),
 ])
 def test_anything_but_a_packed_value_is_a_value_error(data):
     with pytest.raises(ValueError):
