@@ -80,12 +80,17 @@ def test_a_record_holding_an_attribute_it_does_not_declare_is_refused_when_packe
         pack(placed, {})
 
 
-def test_another_class_of_a_registered_name_is_refused():
+def test_another_class_of_a_registered_name_is_refused_and_the_same_class_replaces_itself():
+    from vpl_addon.gather import virtual_lights
+    held = RECORDS["VirtualLights"]
+
     class VirtualLights:  # noqa: F811 (the clash is the point)
         pass
     with pytest.raises(TypeError, match="two record types are named VirtualLights"):
         record(VirtualLights, fields=())
-    assert RECORDS["VirtualLights"].kind.__module__ == "vpl_addon.gather.virtual_lights"
+    assert RECORDS["VirtualLights"] is held
+    assert record(virtual_lights.VirtualLights) is virtual_lights.VirtualLights  # as when its module is imported anew
+    assert RECORDS["VirtualLights"] == held and RECORDS["VirtualLights"] is not held
 
 
 def npz(tree, save=np.savez, **arrays) -> bytes:
