@@ -3,16 +3,18 @@
 The unit a render farm splits is a frame range; ``bake`` renders one, in order, through the engine (so the files are
 exactly what F12 or ``blender -b -a`` would write) with a ``sequence.state.SequenceState`` that the engine picks up
 (``frame_state.rendering``). Every frame appears atomically (``output.render_to``: a ``.partial-<pid>-`` file renamed
-into place), then the state after that frame is saved atomically under ``.bake-state/`` in the output folder. A bake
-started again over the same folder and settings skips the finished frames and continues from the last saved state, so it
-writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``, its pixels
-use ``seed`` in every frame as Cycles does without an animated seed; the EXR header carries no date or render time). A
-range that starts cold, with no saved state before it, warms the state up first (the methods' ``start``), so chunks of
-one range can be rendered on different machines. A chunk of a longer sequence (``first``, the sequence's first frame,
-before the chunk's) does not start cold: it takes the nearest state saved before it (another chunk's, when there is
-one) or a cold start at ``first``, and carries it through the frames in between by placing their lights without
-rendering their pixels (``place_only``), so it continues exactly the state an uninterrupted bake would have: the
-chunks of a farm write the same bytes as one bake, without a seam where a chunk starts.
+into place), then the state after that frame is saved atomically under ``.bake-state/`` in the output folder, as data
+(arrays and JSON, ``SequenceState.dumps``) keyed to the scene, the settings and the frame: a state of another bake, of
+an earlier engine (a pickle, never unpickled) or a damaged one is refused with one warning and the frame starts cold. A
+bake started again over the same folder and settings skips the finished frames and continues from the last saved state,
+so it writes the same bytes as an uninterrupted bake (frame ``f`` places its lights with ``frame_seed(seed, f)``, its
+pixels use ``seed`` in every frame as Cycles does without an animated seed; the EXR header carries no date or render
+time). A range that starts cold, with no saved state before it, warms the state up first (the methods' ``start``), so
+chunks of one range can be rendered on different machines. A chunk of a longer sequence (``first``, the sequence's first
+frame, before the chunk's) does not start cold: it takes the nearest state saved before it (another chunk's, when there
+is one) or a cold start at ``first``, and carries it through the frames in between by placing their lights without
+rendering their pixels (``place_only``), so it continues exactly the state an uninterrupted bake would have: the chunks
+of a farm write the same bytes as one bake, without a seam where a chunk starts.
 
 ``bake.json`` in the folder records the settings; a folder that holds a bake of other settings is refused unless
 ``overwrite`` is given, so nothing the user had is replaced without asking. While a bake runs it claims its frames
@@ -23,6 +25,7 @@ the scene's output path and image format (``output.render_to``), stamps and curr
 from __future__ import annotations
 
 import glob
+import hashlib
 import json
 import os
 import re
@@ -58,22 +61,24 @@ def frame_path(out_dir: str, frame: int) -> str:
 
 
 def _state_path(out_dir: str, frame: int) -> str:
-    return os.path.join(out_dir, STATE_DIR, f"frame_{frame:04d}.pkl")
+    return os.path.join(out_dir, STATE_DIR, f"frame_{frame:04d}.npz")
 
 
-def saved_state_frames(out_dir: str) -> list[int]:
+def saved_states(out_dir: str) -> list[tuple[int, str]]:
+    """(frame, path) of each state saved in the folder, by frame: this engine's (``.npz``) and those an earlier
+    one left (``.pkl``, found so that they are refused with a warning and cleared), the former after the latter."""
     found = []
-    for path in glob.glob(os.path.join(glob.escape(out_dir), STATE_DIR, "frame_*.pkl")):
-        m = re.fullmatch(r"frame_(-?\d+)\.pkl", os.path.basename(path))
+    for path in glob.glob(os.path.join(glob.escape(out_dir), STATE_DIR, "frame_*")):
+        m = re.fullmatch(r"frame_(-?\d+)\.(pkl|npz)", os.path.basename(path))
         if m:
-            found.append(int(m.group(1)))
-    return sorted(found)
+            found.append((int(m.group(1)), m.group(2) == "npz", path))
+    return [(frame, path) for frame, _, path in sorted(found)]
 
 
 def _write_atomic(path: str, data: bytes) -> None:
     folder = os.path.dirname(path)
     os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".partial-{os.getpid()}-", suffix=".pkl", dir=folder)
+    fd, tmp = tempfile.mkstemp(prefix=f".partial-{os.getpid()}-", suffix=os.path.splitext(path)[1], dir=folder)
     try:
         with os.fdopen(fd, "wb") as f:
             f.write(data)
@@ -219,8 +224,13 @@ class Bake:
             for path in (frame_path(self.out_dir, f), _state_path(self.out_dir, f)):
                 if os.path.exists(path):
                     os.unlink(path)
-        for f in saved_state_frames(self.out_dir):
-            os.unlink(_state_path(self.out_dir, f))
+        for _, path in saved_states(self.out_dir):
+            os.unlink(path)
+
+    def state_key(self, frame: int) -> str:
+        """What a state saved after ``frame`` belongs to: the scene's name, the bake's settings and the frame."""
+        return hashlib.blake2b(json.dumps([self.scene.name, self.key, frame], sort_keys=True, default=str).encode(),
+                               digest_size=16).hexdigest()
 
     def run(self, progress: Callable[[float, str], bool] | None = None,
             render_frame: Callable[[str], None] | None = None) -> BakeReport:
@@ -262,10 +272,11 @@ class Bake:
                 scene.frame_set(frame)
                 with rendering(state):
                     render_frame(frame_path(self.out_dir, frame))
-                _write_atomic(_state_path(self.out_dir, frame), state.dumps())
+                _write_atomic(_state_path(self.out_dir, frame), state.dumps(self.state_key(frame)))
                 after = frame
-                if frame - 1 in self.frames and os.path.exists(_state_path(self.out_dir, frame - 1)):
-                    os.unlink(_state_path(self.out_dir, frame - 1))  # a chunk's last state stays for the next one
+                if frame - 1 in self.frames:  # a chunk's last state stays for the next one
+                    for path in [path for saved, path in saved_states(self.out_dir) if saved == frame - 1]:
+                        os.unlink(path)
                 stats = dict(engine.LAST_STATS)
                 info = stats.get("info", {})
                 report.rendered.append(frame)
@@ -287,11 +298,10 @@ class Bake:
         """(state, the frame it is after) to continue from before ``frame``, returned by a generator that yields
         ``steps``' progress (``fraction`` done) while a cold start looks ahead: the latest state saved in the folder
         from frame ``first - 1`` on, else a cold start before ``first``."""
-        for saved in reversed([g for g in saved_state_frames(self.out_dir) if self.first - 1 <= g < frame]):
-            path = _state_path(self.out_dir, saved)
+        for saved, path in reversed([s for s in saved_states(self.out_dir) if self.first - 1 <= s[0] < frame]):
             try:
                 with open(path, "rb") as f:
-                    state = SequenceState.loads(f.read())
+                    state = SequenceState.loads(f.read(), self.state_key(saved))
             except FileNotFoundError:  # another chunk moved on from it this instant
                 continue
             except (OSError, ValueError) as err:

@@ -1,6 +1,7 @@
 """Baking a frame range through Blender: ``python -m vpl_addon bake``, ``render(animation=True)`` (what
 ``blender -b -a`` runs), resuming after SIGKILL, and the bake's care for the output folder."""
 import os
+import pickle
 import signal
 import subprocess
 import sys
@@ -16,6 +17,16 @@ SMALL = ("--percentage", "25", "--samples", "2", "--light-samples", "2", "--vpls
 
 def frames_in(folder):
     return sorted(p.name for p in folder.glob("frame_*.exr"))
+
+
+class RunsCode:
+    """Pickles as a call that writes ``marker``: what a crafted bake state would make ``pickle.loads`` run."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return exec, (f"open({self.marker!r}, 'w').write('ran')",)
 
 
 def test_a_static_bake_traces_light_paths_in_frame_one_only_and_resumes_by_skipping(tmp_path):
@@ -158,12 +169,22 @@ def test_bake_operator_renders_the_frame_range_and_stopping_keeps_what_is_done(e
     for name in frames_in(tmp_path / "op"):
         assert (tmp_path / "op" / name).read_bytes() == (tmp_path / "esc" / name).read_bytes()
 
-    # a state saved by an older layout of the engine (its class has moved): frame 4 starts cold, with a warning
-    bake.Bake(scene, str(tmp_path / "old"), range(3, 6)).run(progress=lambda fraction, text: False)
-    (tmp_path / "old" / ".bake-state" / "frame_0003.pkl").write_bytes(b"cvpl_addon.sequence\nSequenceState\n)\x81.")
-    report = bake.Bake(scene, str(tmp_path / "old"), range(3, 6)).run()
-    assert report.resumed_from is None and report.rendered == [4, 5], report
-    assert len(report.warnings) == 1 and "frame 4 starts cold" in report.warnings[0]
+    # a pickle that runs code when unpickled, where an earlier engine kept its states (.pkl) and where this one
+    # keeps them (.npz): read as data, it is refused, frame 4 starts cold with one warning, and nothing runs
+    pickle.loads(pickle.dumps(RunsCode(tmp_path / "proof")))
+    assert (tmp_path / "proof").exists()  # the payload is live
+    marker = tmp_path / "marker"
+    for folder, name in (("old", "frame_0003.pkl"), ("crafted", "frame_0003.npz")):
+        bake.Bake(scene, str(tmp_path / folder), range(3, 6)).run(progress=lambda fraction, text: False)
+        states = tmp_path / folder / ".bake-state"
+        (states / "frame_0003.npz").unlink()
+        (states / name).write_bytes(pickle.dumps(RunsCode(marker)))
+        report = bake.Bake(scene, str(tmp_path / folder), range(3, 6)).run()
+        assert report.resumed_from is None and report.rendered == [4, 5], report
+        assert len(report.warnings) == 1 and "frame 4 starts cold" in report.warnings[0], report.warnings
+        assert [p.name for p in states.iterdir()] == ["frame_0005.npz"]  # the refused state is cleared
+        assert (tmp_path / folder / "frame_0004.exr").read_bytes() == (tmp_path / "op" / "frame_0004.exr").read_bytes()
+    assert not marker.exists()
 
 
 def test_a_resumed_bake_of_a_stateful_method_writes_the_same_bytes(ext, tmp_path):
@@ -236,8 +257,10 @@ def test_a_vbnl_bake_finds_what_moves_and_keeps_its_lights_where_they_were(ext, 
     lights = {}
     for last in (1, 2):
         folder = tmp_path / f"to{last}"
-        assert bake.Bake(scene, str(folder), range(1, last + 1)).run().rendered == list(range(1, last + 1))
-        state = SequenceState.loads((folder / ".bake-state" / f"frame_{last:04d}.pkl").read_bytes())
+        baked = bake.Bake(scene, str(folder), range(1, last + 1))
+        assert baked.run().rendered == list(range(1, last + 1))
+        state = SequenceState.loads((folder / ".bake-state" / f"frame_{last:04d}.npz").read_bytes(),
+                                    baked.state_key(last))
         # looked over 1..24, the scene's frames; the object the look-ahead cannot see is learnt when it moves
         assert state.animated == ("Bent", "Blinking", "Follower", "ShortBox", *(("Unseen",) if last > 1 else ()))
         lights[last] = state.method_state.lights.position

@@ -22,6 +22,7 @@ class AreaLight(Light):
     power: np.ndarray  # RGB watts
     round: bool = False  # disk / ellipse instead of square / rectangle
     spread: float = np.pi  # full angle of the emission cone; below pi light is focused along the normal
+    visible: bool = False  # camera rays see it (``Light.visible``): a field, so the light's record keeps it
     planar = True  # one-sided, in the plane of its centre and axes
 
     def __post_init__(self):

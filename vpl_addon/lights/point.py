@@ -51,6 +51,7 @@ class PointLight(Light):
     power: np.ndarray  # RGB watts (colour x energy)
     radius: float = 0.0
     soft_falloff: bool = True  # Blender's default: the light acts as a disc facing the shading point
+    visible: bool = False  # camera rays see it (``Light.visible``): a field, so the light's record keeps it
 
     def __post_init__(self):
         self.position = np.asarray(self.position, np.float64)

@@ -18,6 +18,7 @@ class SunLight(Light):
     direction: np.ndarray  # direction the light travels (the sun object's -Z)
     strength: np.ndarray  # RGB W/m^2
     angle: float = 0.0  # angular diameter of the sun disc
+    visible: bool = False  # camera rays see it (``Light.visible``): a field, so the light's record keeps it
     distant = True
 
     def __post_init__(self):

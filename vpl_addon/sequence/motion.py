@@ -15,6 +15,8 @@ from dataclasses import dataclass, field, fields, is_dataclass
 
 import numpy as np
 
+from .persisted import record
+
 
 def _digest(*arrays) -> str:
     h = hashlib.blake2b(digest_size=16)
@@ -40,6 +42,7 @@ def light_digest(light) -> str:
     return h.hexdigest()
 
 
+@record
 @dataclass
 class Snapshot:
     """Digests of one frame's scene."""
@@ -80,6 +83,7 @@ class Snapshot:
                         _digest(scene.triangles))
 
 
+@record
 @dataclass
 class Motion:
     """The difference between two snapshots (``previous`` None: the first frame, everything is new)."""

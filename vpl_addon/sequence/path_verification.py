@@ -45,6 +45,7 @@ from ..materials.surface import arrival_factor, shade
 from ..paths.light_paths import BATCH_PATHS, trace_paths, trace_until
 from . import distribution_map as dm
 from .motion import light_digest
+from .persisted import record
 
 THRESHOLD = 1e-3  # T of eq. 2, the paper's 0.1 %
 
@@ -107,6 +108,7 @@ def _key(path: np.ndarray, bounce: np.ndarray) -> np.ndarray:
     return path.astype(np.int64) * 4096 + bounce
 
 
+@record(fields=("paths", "next_id", "segments", "vpls", "light", "emitters", "light_prob", "rays_last_frame"))
 class LightPathStore:
     """The segments and VPLs of light paths (VPL intensities divided by ``paths``, the number of paths the
     estimator averages over, which stays the same from frame to frame), and each path's light."""
@@ -362,6 +364,7 @@ def follow(store: LightPathStore, context, motion, target: int, reuse: bool = Tr
     return traced
 
 
+@record
 @dataclass
 class PlacedFromPaths:
     """What a method that places its lights again in every frame something moved keeps in a sequence (``bidir``'s

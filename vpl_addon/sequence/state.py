@@ -18,31 +18,33 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
   shading, and the camera for the view-dependent ones), the previous frame's lights are reused and no light path is
   traced; the placement generator is put back where it was after they were placed, so the frame renders exactly as that one.
 
-The state pickles (without its tracer), so a bake saves it after every frame and an interrupted bake resumes from
-the last finished frame with exactly the state an uninterrupted bake would have had. Frame ``f`` places its lights
-with ``frame_seed(seed, f)`` (``RenderSettings.placement_seed``) and samples its pixels with ``seed``, as does what a
-method draws from the camera's view (``MethodContext.camera_rng``: vbnl's candidates): its random numbers do not
-depend on where the bake started, and the pixel noise and the lights' places do not flicker.
+The state saves as data (``dumps``: arrays and JSON, ``persisted``; its tracers are built again), so a bake saves
+it after every frame and an interrupted bake resumes from the last finished frame with exactly the state an
+uninterrupted bake would have had; a saved state is read only by the bake it belongs to (``key``). Frame ``f``
+places its lights with ``frame_seed(seed, f)`` (``RenderSettings.placement_seed``) and samples its pixels with
+``seed``, as does what a method draws from the camera's view (``MethodContext.camera_rng``: vbnl's candidates): its
+random numbers do not depend on where the bake started, and the pixel noise and the lights' places do not flicker.
 """
 from __future__ import annotations
 
 import hashlib
-import pickle
 
 import numpy as np
 
 from ..core.tracer import Tracer
 from ..materials.cutouts import cutouts
 from .motion import Motion, Snapshot
+from .persisted import pack, record, unpack
 
 
-# The layout of the pickled state and of every method's state in it: raised whenever one of them gains, loses or
+# The layout of the saved state and of every method's state in it: raised whenever one of them gains, loses or
 # changes a field, so a state saved by an earlier engine is refused (the bake starts cold) rather than failing on a
 # missing attribute in the middle of a frame. 2: smc keeps its rounds' hits for the "voronoi" areas. 3: vbnl's
 # photon lights keep their light tree (``PhotonLights.tree``). 4: the state keeps the objects that move in the sequence
 # (``SequenceState.animated``). 5: vbnl's photon lights keep their reach (``PhotonLights.reach``); the state keeps
-# its tracers' centre (``SequenceState.center``).
-STATE_FORMAT = 5
+# its tracers' centre (``SequenceState.center``). 6: the state is records of arrays and JSON (``persisted``); lights
+# keep their camera visibility as a field.
+STATE_FORMAT = 6
 
 
 def frame_seed(seed: int, frame: int) -> int:
@@ -69,12 +71,14 @@ def _kept(held: tuple[str, Tracer] | None, digest: str, scene, threads: int | No
     return held
 
 
+@record(fields=("method", "frame", "snapshot", "motion", "lights", "info", "method_state", "bvh_builds", "rng_state",
+                "animated", "learns", "center", "_threads"),
+        transient={"_whole": lambda: None, "_still": lambda: None})
 class SequenceState:
     """One method's state across the frames of a sequence."""
 
     def __init__(self, method: str):
         self.method = method
-        self.format = STATE_FORMAT
         self.frame: int | None = None  # the last frame begun
         self.snapshot: Snapshot | None = None
         self.motion: Motion | None = None
@@ -88,7 +92,7 @@ class SequenceState:
         self.learns = False  # ``animated`` gains each frame's moved objects (an animation render, a bake)
         # the point every frame's tracers take their float32 coordinates from: the first frame's centre, so what
         # stands still is traced to the same bits in every frame (a centre that moved with the bounds, an object
-        # moving at the scene's edge or one learnt to move, moved lights all over the room); pickled, so a resumed
+        # moving at the scene's edge or one learnt to move, moved lights all over the room); saved, so a resumed
         # bake traces as an unbroken one
         self.center: np.ndarray | None = None
         self._whole: tuple[str, Tracer] | None = None  # (digest of the triangles and threads, their tracer)
@@ -155,27 +159,27 @@ class SequenceState:
         self._whole = self._still = None
 
     # -- persistence -----------------------------------------------------------------------------------------------
-    def __getstate__(self):
-        state = dict(self.__dict__)
-        state["_whole"], state["_still"] = None, None
-        return state
-
-    def dumps(self) -> bytes:
-        return pickle.dumps(self, protocol=pickle.HIGHEST_PROTOCOL)
+    def dumps(self, key: str = "") -> bytes:
+        """The state as the bytes of a file (``persisted.pack``), its tracers left out; ``key`` names what it
+        belongs to (a bake's scene, settings and frame), which ``loads`` is given again."""
+        return pack(self, {"format": STATE_FORMAT, "key": key})
 
     @staticmethod
-    def loads(data: bytes) -> "SequenceState":
-        """The state ``dumps`` wrote; ValueError for anything else, including a state pickled by another version
-        of the engine whose classes have moved or changed (the caller starts cold instead)."""
+    def loads(data: bytes, key: str = "") -> "SequenceState":
+        """The state ``dumps`` wrote with the same ``key``; ValueError for anything else (the caller starts cold
+        instead): a state of another format (a pickle of an earlier engine, which is never unpickled), of another
+        scene, settings or frame, damaged bytes, or a file that holds no sequence state."""
         try:
-            state = pickle.loads(data)
-        except (pickle.UnpicklingError, ImportError, AttributeError, EOFError, TypeError, ValueError,
-                IndexError) as err:
-            raise ValueError(f"unreadable sequence state ({type(err).__name__}: {err}): written by another "
-                             f"version of VPL GI, or damaged") from None
+            header, read = unpack(data)
+        except ValueError as err:
+            raise ValueError(f"unreadable sequence state ({err}): written by another version of VPL GI, or "
+                             f"damaged") from None
+        if header.get("format") != STATE_FORMAT:
+            raise ValueError(f"a sequence state of format {header.get('format')}, where this engine reads "
+                             f"{STATE_FORMAT}: written by another version of VPL GI, or damaged")
+        if header.get("key") != key:
+            raise ValueError("a sequence state of another scene, settings or frame")
+        state = read()
         if not isinstance(state, SequenceState):
             raise ValueError("not a sequence state")
-        if getattr(state, "format", None) != STATE_FORMAT:
-            raise ValueError(f"a sequence state of format {getattr(state, 'format', 1)}, where this engine reads "
-                             f"{STATE_FORMAT}: written by another version of VPL GI, or damaged")
         return state

@@ -1,16 +1,22 @@
 """Sequences without Blender: motion between frames, the static-frame rule, the state's persistence."""
+import io
+import json
+import pickle
+
 import numpy as np
 import pytest
 
 from conftest import plane_scene
 from vpl_addon.core.scene import Scene
 from vpl_addon.gather.summing import GatherSettings
-from vpl_addon.lights import PointLight
+from vpl_addon.core.scene import Environment, Materials
+from vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
 from vpl_addon.methods import METHODS, MethodSettings
 from vpl_addon.methods.smc import SMCSettings
 from vpl_addon.methods.vbnl import VBNLSettings
 from vpl_addon.render import RenderSettings, render
 from vpl_addon.sequence.motion import Motion, Snapshot
+from vpl_addon.sequence.persisted import pack
 from vpl_addon.sequence.state import STATE_FORMAT, SequenceState, frame_seed
 
 WALL = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
@@ -96,29 +102,106 @@ def test_a_saved_state_renders_the_next_frame_exactly_as_the_live_one():
         np.testing.assert_array_equal(a.passes[name], b.passes[name])
     live.close()
     saved.close()
-    with pytest.raises(ValueError):
-        SequenceState.loads(__import__("pickle").dumps({"not": "a state"}))
+    with pytest.raises(ValueError, match="not a sequence state"):
+        SequenceState.loads(pack({"not": "a state"}, {"format": STATE_FORMAT, "key": ""}))
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_a_saved_state_of_every_method_continues_a_moving_sequence_to_the_bit(method):
+    """Each method's own state (smc's VPL set, the kept light paths of ir, bidir and vbnl, vbnl's photon lights and
+    light tree) saved after two frames of a moving block renders the next frames exactly as the live state does."""
+    from test_path_verification import room_with_block
+    live = SequenceState(method)
+    live.learns = True
+    for frame, offset in ((1, -0.6), (2, 0.0)):
+        render(room_with_block(offset), settings(method, frame_seed(0, frame)), sequence=live)
+    saved = SequenceState.loads(live.dumps("bake 2"), "bake 2")
+    for frame, offset in ((3, 0.3), (4, 0.3)):
+        a = render(room_with_block(offset), settings(method, frame_seed(0, frame)), sequence=live)
+        b = render(room_with_block(offset), settings(method, frame_seed(0, frame)), sequence=saved)
+        for name in a.passes:
+            assert a.passes[name].tobytes() == b.passes[name].tobytes(), (method, frame, name)
+    live.close()
+    saved.close()
+
+
+@pytest.mark.parametrize("world", ["constant", "environment"])
+def test_kept_light_paths_of_every_kind_of_light_are_saved(world):
+    """ir keeps the lights its paths came from: point, spot, area and sun lights, an emissive mesh (whose lock and
+    tracer are made afresh) and the world, constant or an environment map, all come back and follow the next
+    frame as the live ones do."""
+    from test_path_verification import room_with_block
+
+    def scene(offset):
+        room = room_with_block(offset)
+        lamps = [PointLight("lamp", [0, 0, 2.5], [100.0] * 3), SpotLight("spot", [1, 0, 2], [200.0] * 3),
+                 AreaLight("panel", [-1, 0, 2.9], [0.5, 0, 0], [0, 0.5, 0], [0, 0, -1], [80.0] * 3),
+                 SunLight("sun", [0.3, 0.2, -1], [2.0] * 3, 0.05)]
+        glowing = np.zeros(len(room.triangles), np.int32)
+        glowing[2:4] = 1  # the wall glows
+        sky = np.random.default_rng(2).random((8, 16, 3)).astype(np.float32)
+        return Scene.build(room.triangles, Materials.make([{"name": "glow", "emission": (0.5, 0.5, 0.5)}]),
+                           lamps, room.camera, material=glowing, object_id=room.object_id,
+                           object_names=room.object_names, max_bounces=3, world=(0.2, 0.2, 0.2),
+                           environment=Environment.checked(sky) if world == "environment" else None)
+    live = SequenceState("ir")
+    render(scene(0.0), settings("ir", frame_seed(0, 1)), sequence=live)
+    kinds = [type(light).__name__ for light in live.method_state.emitters]
+    assert kinds == ["PointLight", "SpotLight", "AreaLight", "SunLight", "EmissiveTriangles",
+                     "EnvironmentLight" if world == "environment" else "WorldLight"]
+    saved = SequenceState.loads(live.dumps())
+    a = render(scene(0.3), settings("ir", frame_seed(0, 2)), sequence=live)
+    b = render(scene(0.3), settings("ir", frame_seed(0, 2)), sequence=saved)
+    assert a.passes["Diffuse Indirect"].tobytes() == b.passes["Diffuse Indirect"].tobytes()
+    live.close()
+    saved.close()
+
+
+class _RunsCode:
+    """Pickles as a call that writes ``marker``: what a crafted bake state would make ``pickle.loads`` run."""
+
+    def __init__(self, marker):
+        self.marker = str(marker)
+
+    def __reduce__(self):
+        return exec, (f"open({self.marker!r}, 'w').write('ran')",)
+
+
+def test_a_crafted_state_that_would_run_code_is_refused_and_runs_nothing(tmp_path):
+    """A bake state is read as data: a pickle that runs code when unpickled, as a file or as an array of objects
+    in an npz, is refused with a ValueError (the bake starts cold) and its code never runs."""
+    proof = tmp_path / "proof"
+    pickle.loads(pickle.dumps(_RunsCode(proof)))
+    assert proof.read_text() == "ran"  # the payload is live
+    marker = tmp_path / "marker"
+    in_npz = io.BytesIO()
+    tree = json.dumps({"header": {"format": STATE_FORMAT, "key": ""}, "value": {"array": "a0"}})
+    np.savez(in_npz, tree=np.frombuffer(tree.encode(), np.uint8), a0=np.array([_RunsCode(marker)], object))
+    for data in (pickle.dumps(_RunsCode(marker)), in_npz.getvalue()):
+        with pytest.raises(ValueError, match="another version of VPL GI, or damaged"):
+            SequenceState.loads(data)
+    assert not marker.exists()
 
 
 @pytest.mark.parametrize("data", [b"\x80\x05not a pickle", b"",
-                                  b"cvpl_addon.sequence\nSequenceState\n)\x81.",  # a class that moved
-                                  b"cvpl_addon.path_verification\nLightPathStore\n)\x81."])  # a module gone
-def test_a_state_from_another_layout_or_damaged_is_refused_with_a_value_error(data):
-    """Bake states saved before the engine's modules moved name classes that are no longer there: the bake is
-    told by a ValueError (and starts cold) rather than crashing on an ImportError."""
+                                  b"cvpl_addon.sequence\nSequenceState\n)\x81.",  # a pickle of an earlier engine
+                                  b"cvpl_addon.path_verification\nLightPathStore\n)\x81."])
+def test_a_state_of_another_kind_or_damaged_is_refused_with_a_value_error(data):
+    """Bake states saved as pickles by earlier engines, and damaged ones: the bake is told by a ValueError (and
+    starts cold)."""
     with pytest.raises(ValueError, match="another version of VPL GI, or damaged"):
         SequenceState.loads(data)
 
 
-def test_a_state_of_an_earlier_format_is_refused_with_a_value_error():
-    """A state whose method kept other fields (smc before it kept its hits) unpickles, but is refused before a
-    frame reaches for a field it lacks."""
-    old = SequenceState("smc")
-    del old.format  # as saved before the format was recorded
-    with pytest.raises(ValueError, match=f"format 1, where this engine reads {STATE_FORMAT}"):
-        SequenceState.loads(old.dumps())
-    old.format = STATE_FORMAT
-    assert SequenceState.loads(old.dumps()).method == "smc"
+def test_a_state_of_another_format_or_bake_is_refused_with_a_value_error():
+    """A state whose layout may differ (another format) is refused before a frame reaches for a field it lacks;
+    one saved for another scene, settings or frame (its key) is refused too."""
+    state = SequenceState("smc")
+    with pytest.raises(ValueError, match=f"format {STATE_FORMAT - 1}, where this engine reads {STATE_FORMAT}"):
+        SequenceState.loads(pack(state, {"format": STATE_FORMAT - 1, "key": ""}))
+    with pytest.raises(ValueError, match="another scene, settings or frame"):
+        SequenceState.loads(state.dumps("frame 3"), "frame 4")
+    assert SequenceState.loads(state.dumps("frame 3"), "frame 3").method == "smc"
 
 
 @pytest.mark.parametrize("method", list(METHODS))
@@ -177,7 +260,7 @@ def test_vbnl_lights_stay_where_they_were_while_an_animated_object_moves():
 
 def test_the_still_scene_is_what_is_not_named_and_none_when_nothing_is_left():
     """A state that names no object, or every object, has no still scene; one that names some has the rest, its
-    tracer built once and left out of the pickled state."""
+    tracer built once and left out of the saved state."""
     from test_path_verification import room_with_block
     scene = room_with_block(0.0)
     state = SequenceState("vbnl")
@@ -188,7 +271,7 @@ def test_the_still_scene_is_what_is_not_named_and_none_when_nothing_is_left():
     state.animated = ("Wall", "Block")
     rest, tracer = state.still(scene)
     assert len(rest.triangles) == 2 and tracer.triangle_count == 2
-    restored = SequenceState.loads(state.dumps())  # the tracer is not pickled; the names are
+    restored = SequenceState.loads(state.dumps())  # the tracer is not saved; the names are
     assert restored.animated == ("Wall", "Block") and restored._still is None
     state.close()
 
@@ -229,7 +312,7 @@ def test_an_object_learnt_to_move_at_the_scenes_edge_leaves_the_lights_where_the
     """A speck below the floor, out of every ray's way, stretches the scene's bounds and moves: learnt in frame 2,
     it leaves the still scene, whose tracer takes its float32 coordinates from the first frame's centre, so vbnl's
     lights stay where they were to the bit (with the centre of its own bounds, rounding moved them all over the
-    room). The centre is pickled: a resumed sequence traces from it too."""
+    room). The centre is saved: a resumed sequence traces from it too."""
     from test_path_verification import room_with_block
 
     def scene(x):

@@ -39,6 +39,7 @@ from ...core.color import luminance
 from ...gather.virtual_lights import STANDARD, VirtualLights
 from ...materials.surface import Surface, diffuse_bounce
 from ...paths.camera_points import CameraPoints
+from ...sequence.persisted import record
 from ..base import Method, option
 from .indirect_visibility import validate
 from .knn_density import knn_density, knn_radii, knn_radius, rendering_k
@@ -96,6 +97,8 @@ class SMCSettings:
             raise ValueError(f"smc percentile must be between 0 and 100 (got {self.percentile})")
 
 
+@record(fields=("surface", "radiosity", "seed", "mailbox", "strength", "density", "area", "hits", "next_seed",
+                "iterations", "stale_radiosity"))
 class SMCState:
     """The VPL set Y carried from frame to frame."""
 

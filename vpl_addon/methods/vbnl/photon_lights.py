@@ -50,6 +50,7 @@ import numpy as np
 
 from ...core.compiled import inline, kernel
 from ...core.sampling import basis, orthonormal_basis
+from ...sequence.persisted import record
 from .morton import morton_codes, radix_tree
 
 ALPHA = 2.0  # VSL radius r = alpha r_max (sec. 3.2)
@@ -76,6 +77,7 @@ SLOPE_CAP = 0.7  # at most this relative change of a light's radiance over its r
 HASH = (73856093, 19349663, 83492791)  # Teschner et al. 2003, spatial hashing of a cell's integer coordinates
 
 
+@record
 @dataclass
 class LightGrid:
     """The lights' supports hashed into a uniform grid of cubes of side ``cell`` from ``origin``: the lights that
@@ -132,6 +134,7 @@ def _slot(x, y, z, mask):
 _slot_compiled = kernel(_slot)
 
 
+@record
 @dataclass
 class PhotonLights:
     position: np.ndarray  # (N,3)
