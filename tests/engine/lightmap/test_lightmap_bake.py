@@ -1,0 +1,118 @@
+"""The lightmap bake without Blender: finite, non-negative texels in every pass, no light through a closed wall,
+the ring around each island filled, the UV map's coverage, the VPLs shared by all objects."""
+import numpy as np
+import pytest
+
+from rooms import box_faces, scene_of
+from vpl_addon.lightmap import BAKE_PASSES, LightmapSettings, bake
+from vpl_addon.lightmap.dilation import dilate
+from vpl_addon.lightmap.texels import rasterise
+from vpl_addon.lights import PointLight
+
+ROOM = ((-1.0, -1.0, 0.0), (1.0, 1.0, 2.0))
+
+
+@pytest.fixture(scope="module")
+def lit_room():
+    return scene_of(box_faces(*ROOM), [PointLight("lamp", [0.3, 0.2, 1.5], [100.0] * 3)])
+
+
+@pytest.mark.parametrize("name", BAKE_PASSES)
+def test_every_texel_of_every_pass_is_finite_and_non_negative(lit_room, name):
+    result = bake(lit_room, lit_room.object_names, LightmapSettings(size=24, bake_pass=name))
+    assert set(result.images) == set(lit_room.object_names) and not result.warnings
+    for image in result.images.values():
+        assert image.shape == (24, 24, 4) and image.dtype == np.float32
+        assert np.isfinite(image).all() and (image >= 0.0).all()
+        assert (image[..., 3] == 1.0).all()  # each face's island is the whole map
+        assert image[..., :3].mean() > 0.01  # the lamp inside lights every face, directly or not
+
+
+def test_a_room_lit_from_outside_through_closed_walls_is_dark_inside():
+    """One-sided walls facing in, a floor that runs out under them into the lamp's light: the texels inside the
+    room get no light, neither through the walls nor along the floor's seam with them (texels outside the wall
+    whose samples see its back are moved in, ``unocclude``) nor from the denoiser."""
+    walls = {name: c for name, c in box_faces(*ROOM).items() if name != "floor"}
+    floor = {"floor": [(-3.0, -3.0, 0.0), (3.0, -3.0, 0.0), (3.0, 3.0, 0.0), (-3.0, 3.0, 0.0)]}
+    scene = scene_of({**floor, **walls}, [PointLight("sun-ish", [2.5, 0.0, 3.0], [2000.0] * 3)])
+    size = 48
+    result = bake(scene, scene.object_names, LightmapSettings(size=size, bake_pass="Diffuse"))
+    for name in walls:
+        assert result.images[name][..., :3].max() == 0.0, name
+    image = result.images["floor"][::-1]  # row 0 at v = 0 from here
+    centre = (np.arange(size) + 0.5) / size * 6.0 - 3.0  # the texels' x (and y) on the floor
+    inside = (np.abs(centre)[:, None] < 1.0) & (np.abs(centre)[None, :] < 1.0)
+    assert image[inside, :3].max() == 0.0
+    assert image[~inside, :3].mean() > 0.1  # the light outside is there
+
+
+def test_the_ring_around_each_island_is_filled_by_the_margin():
+    scene = scene_of({"floor": box_faces(*ROOM)["floor"]}, [PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3)],
+                     island=(0.25, 0.75))
+    image = bake(scene, ["floor"], LightmapSettings(size=32, margin=2, bake_pass="Diffuse Direct")).images["floor"]
+    inside = np.zeros((32, 32), bool)
+    inside[8:24, 8:24] = True
+    ring = np.zeros((32, 32), bool)
+    ring[6:26, 6:26] = True
+    ring &= ~inside
+    assert (image[inside, 3] == 1.0).all() and (image[~inside, 3] == 0.0).all()
+    assert (image[ring, :3] > 0.0).all()
+    assert (image[~(ring | inside), :3] == 0.0).all()
+
+
+def test_dilation_carries_the_edge_values_outward():
+    image = np.zeros((5, 5, 1))
+    image[2, 2] = 4.0
+    filled = np.zeros((5, 5), bool)
+    filled[2, 2] = True
+    out = dilate(image, filled, 1)
+    assert (out[1:4, 1:4] == 4.0).all() and out[0].max() == 0.0
+
+
+def test_coverage_is_the_share_of_each_texel_inside_the_uv_map():
+    """One triangle over half the map: the texels below its diagonal are covered, those above empty, those on it
+    in part; the covered area is the triangle's."""
+    scene = scene_of({"half": [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)]}, [])
+    texels = rasterise(scene, np.array([0]), 16, 16, np.random.default_rng(0))
+    coverage = texels.coverage.reshape(16, 16)
+    assert coverage.mean() == pytest.approx(0.5, abs=0.02)
+    assert coverage[0, 15] == 1.0 and coverage[15, 0] == 0.0  # (x 15, y 0) under the diagonal u > v
+    assert texels.overlap == 0.0
+
+
+def test_all_objects_share_one_set_of_vpls(lit_room):
+    """The VPLs are placed once: baking one object or all six places the same set."""
+    one = bake(lit_room, ["floor"], LightmapSettings(size=16))
+    six = bake(lit_room, lit_room.object_names, LightmapSettings(size=16))
+    assert one.info["vpls"] == six.info["vpls"] > 0
+    assert np.array_equal(one.images["floor"], six.images["floor"])
+
+
+def test_bad_settings_are_refused():
+    for bad in ({"size": 0}, {"size": 16385}, {"bake_pass": "Glossy"}, {"method": "vbnl"}, {"margin": -1}):
+        with pytest.raises(ValueError):
+            LightmapSettings(**bad)
+
+
+def test_samples_inside_a_block_are_moved_out_of_it_and_the_others_stay():
+    """A closed block (faces out) standing on the floor: floor samples under it within a texel of its sides (where
+    a texel straddles the block's edge) see the backs of its faces and move just past the nearest one; those in
+    the open keep their place (those deeper under it are dark either way: the block's faces shadow them)."""
+    from vpl_addon.core.tracer import Tracer
+    from vpl_addon.lightmap.unocclude import unocclude
+    floor = {"floor": box_faces(*ROOM)["floor"]}
+    block = {f"block {name}": c for name, c in box_faces((-0.5, -0.5, -0.1), (0.5, 0.5, 0.5), inward=False).items()}
+    scene = scene_of({**floor, **block}, [])
+    texels = rasterise(scene, np.array([0, 1]), 16, 1, np.random.default_rng(0))
+    surface = texels.surface(scene)
+    tracer = Tracer(scene.triangles)
+    moved_surface, moved = unocclude(surface, texels.footprint(scene), tracer, scene.geometric_normals)
+    tracer.close()
+    before, after = surface.position, moved_surface.position
+    side = 0.5 - np.abs(before[:, :2]).max(axis=1)  # how far inside the block's outline
+    under = (side > 0.0) & (side < 0.8 * 2 / 16)
+    open_floor = (np.abs(before[:, :2]) > 0.5 + 2 / 16).any(axis=1)
+    assert moved[under].all() and not moved[open_floor].any()
+    assert np.array_equal(after[~moved], before[~moved])
+    outside = (np.abs(after[moved]) > [0.5, 0.5, 0.5]).any(axis=1) | (after[moved, 2] < -0.1)
+    assert outside.all()

@@ -1,0 +1,217 @@
+"""Lightmaps of several objects from one set of virtual lights: each object's texel G-buffer (``texels``), its
+samples pushed out of other geometry (``unocclude``), the direct light and the VPLs' light gathered at them, the
+passes of Cycles' bake types, the interleaving filtered out, OIDN's lightmap filter, the islands dilated.
+
+The VPLs are placed once for all the objects baked (``methods.place``), so every texel of every object is lit by
+the same set: the cost of placing them is paid once however many objects there are, where Cycles' bake traces its
+paths object by object. A method that places by the camera's view (bidir's camera points, smc's) places by the
+scene's camera, not by the texels; vbnl samples its lights per camera sample (its own gather) and is not offered.
+
+The passes are those of Cycles' bake types (``BAKE_PASSES``), as Cycles divides its light by its colour when the
+Color toggle is off: ``Diffuse Indirect`` (type DIFFUSE, pass filter INDIRECT), ``Diffuse Direct`` (DIRECT),
+``Diffuse`` (both), ``Diffuse Color`` (COLOR alone) and ``Combined`` (the diffuse light times its colour, plus
+emission; glossy light is not baked). A texel's light is the albedo-weighted mean over its samples, as a render's
+pixel's (``render``); alpha is the texel's coverage.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Callable
+
+import numpy as np
+
+from ..core import passes as P
+from ..core.denoise import DenoiserMissing, denoise_lightmap
+from ..core.sampling import group_sum
+from ..core.tracer import Tracer
+from ..gather.summing import GatherSettings, clamp_distance, gather
+from ..lights import LightSet
+from ..lights.direct import direct_light
+from ..materials.cutouts import cutouts
+from ..methods import METHODS, MethodContext, MethodSettings, place
+from ..render import _divide
+from .dilation import dilate
+from .texels import Texels, rasterise
+from .unocclude import unocclude
+
+DIFFUSE = "Diffuse"
+BAKE_PASSES = (P.DIFFUSE_INDIRECT, P.DIFFUSE_DIRECT, DIFFUSE, P.DIFFUSE_COLOR, P.COMBINED)
+MAX_SIZE = 16384
+MIN_MARGIN = 2  # the ring every island grows at least, whatever margin is asked for
+
+
+class Cancelled(Exception):
+    """``progress`` returned False: the bake stopped."""
+
+
+@dataclass
+class LightmapSettings:
+    size: int = 128  # texels per side of each object's map
+    samples: int = 4  # sample points per texel (direct light, coverage); a square number
+    light_samples: int = 2  # shadow rays per sample for the direct light
+    indirect_samples: int = 1  # samples per texel that gather the VPLs' light
+    bake_pass: str = P.DIFFUSE_INDIRECT  # one of ``BAKE_PASSES``
+    method: str = "ir"
+    placement: MethodSettings = field(default_factory=lambda: MethodSettings(vpls=256))
+    # every texel sees every VPL (interleave 1): see ``_indirect``
+    gather: GatherSettings = field(default_factory=lambda: GatherSettings(interleave=1))
+    margin: int = 16  # texels the islands grow by (Cycles' bake margin's default)
+    denoise: bool = True  # OIDN's lightmap filter (``core.denoise.denoise_lightmap``)
+    seed: int = 0
+    threads: int | None = None
+    max_bounces: int | None = None  # None: the scene's
+
+    def __post_init__(self):
+        if not 0 < self.size <= MAX_SIZE:
+            raise ValueError(f"size must be between 1 and {MAX_SIZE} texels (got {self.size})")
+        if self.samples < 1 or self.indirect_samples < 1 or self.light_samples < 0:
+            raise ValueError("samples and indirect samples must be at least 1, light samples at least 0")
+        if self.bake_pass not in BAKE_PASSES:
+            raise ValueError(f"unknown pass {self.bake_pass!r}; choose one of {', '.join(BAKE_PASSES)}")
+        if self.method not in METHODS or not METHODS[self.method].sums_lights:
+            summed = [name for name, m in METHODS.items() if m.sums_lights]
+            raise ValueError(f"method {self.method!r} cannot bake lightmaps; choose one of {', '.join(summed)}")
+        if self.margin < 0:
+            raise ValueError(f"margin must not be negative (got {self.margin})")
+
+
+@dataclass
+class LightmapResult:
+    images: dict[str, np.ndarray]  # object name -> (size,size,4) float32: the pass, alpha = coverage; row 0 at v = 1
+    seconds: dict[str, float]  # object name -> seconds of its own work; "place" the VPLs' (shared)
+    warnings: list[str] = field(default_factory=list)
+    info: dict = field(default_factory=dict)
+
+
+@dataclass
+class _Lit:
+    """What lights the texels: the tracer, the lights, the placed VPLs and the gather's clamp and VPL order."""
+    tracer: Tracer
+    lights: LightSet
+    vpls: object = None
+    d_min: float = 0.0
+    permutation: np.ndarray | None = None
+
+
+def bake(scene, objects: list[str], settings: LightmapSettings,
+         progress: Callable[[float, str], bool] | None = None) -> LightmapResult:
+    """The lightmaps of the ``objects`` (names of the scene's) in ``settings.bake_pass``; every object of the
+    scene occludes and reflects light, baked or not. ``progress(fraction, text)`` hears of each object done and
+    cancels the bake by returning False (``Cancelled``)."""
+    result = LightmapResult({}, {})
+    missing = [name for name in objects if name not in scene.object_names]
+    if missing:
+        raise ValueError(f"object {missing[0]!r} is not in the scene")
+    tracer = Tracer(scene.triangles, threads=settings.threads, cutouts=cutouts(scene), seed=settings.seed)
+    try:
+        lit = _Lit(tracer, LightSet(scene))
+        if len(lit.lights) == 0 and settings.bake_pass != P.DIFFUSE_COLOR:
+            result.warnings.append("the scene has no lights: the lightmaps are black")
+        t0 = time.perf_counter()
+        if _needs_indirect(settings) and len(lit.lights) and len(scene.triangles):
+            _place(scene, settings, lit, result)
+        result.seconds["place"] = time.perf_counter() - t0
+        for number, name in enumerate(objects):
+            t0 = time.perf_counter()
+            result.images[name] = _bake_object(scene, scene.object_names.index(name), settings, lit, result)
+            result.seconds[name] = time.perf_counter() - t0
+            if progress is not None and progress((number + 1) / len(objects), name) is False:
+                raise Cancelled()
+    finally:
+        tracer.close()
+    return result
+
+
+def _needs_indirect(settings: LightmapSettings) -> bool:
+    return settings.bake_pass in (P.DIFFUSE_INDIRECT, DIFFUSE, P.COMBINED)
+
+
+def _bounces(scene, settings: LightmapSettings) -> int:
+    return scene.max_bounces if settings.max_bounces is None else settings.max_bounces
+
+
+def _place(scene, settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> None:
+    """The VPLs of all the objects, once, into ``lit`` (checked finite and non-negative), their number in
+    ``result.info``."""
+    if _bounces(scene, settings) <= 0:
+        return
+    context = MethodContext(scene, lit.tracer, lit.lights, np.random.default_rng([settings.seed, 1 << 20]),
+                            _bounces(scene, settings), np.random.default_rng([settings.seed, 1 << 21]))
+    lit.vpls, info = place(settings.method, context, settings.placement)
+    P.check({"VPL intensity": lit.vpls.intensity}, f"lightmap, method {settings.method!r}, stage 'place'")
+    lit.d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.gather.clamp)
+    lit.permutation = context.rng.permutation(len(lit.vpls))
+    result.info.update(info, vpls=len(lit.vpls))
+
+
+def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> np.ndarray:
+    """One object's map (size,size,4): its texels, their light in the pass, filtered, denoised and dilated."""
+    name, size = scene.object_names[index], settings.size
+    triangles = np.nonzero(scene.object_id == index)[0]
+    uv = scene.uvs[triangles]
+    if len(uv) and (uv.min() < 0.0 or uv.max() > 1.0):
+        result.warnings.append(f"object {name!r}: its UV map reaches outside [0, 1]; the texels there are not baked")
+    texels = rasterise(scene, triangles, size, settings.samples, np.random.default_rng([settings.seed, index]))
+    if texels.overlap > 0.01:
+        result.warnings.append(f"object {name!r}: {texels.overlap:.0%} of its UV map overlaps itself; the "
+                               f"overlapping texels hold the mean of the surfaces there")
+    surface, _ = unocclude(texels.surface(scene), texels.footprint(scene), lit.tracer, scene.geometric_normals)
+    light = _light(texels, surface, settings, lit)
+    P.check({settings.bake_pass: light}, f"lightmap of {name!r}")
+    filled = (texels.coverage > 0.0).reshape(size, size)
+    image = dilate(light.reshape(size, size, 3), filled, max(settings.margin, MIN_MARGIN))
+    if settings.denoise and settings.bake_pass != P.DIFFUSE_COLOR and image.any():
+        image = _denoised(image, filled, settings, result)
+    out = np.concatenate([image, texels.coverage.reshape(size, size, 1)], axis=2)[::-1]  # row 0 at v = 1
+    return np.ascontiguousarray(np.maximum(out, 0.0), np.float32)
+
+
+def _denoised(image: np.ndarray, filled: np.ndarray, settings: LightmapSettings, result: LightmapResult):
+    """(size,size,3) the dilated ``image`` denoised by OIDN's lightmap filter and dilated again from its
+    ``filled`` texels; a texel that no light reached at all (0 before) stays 0: the filter, which sees no walls,
+    spread 0.7 % of the light outside a closed room onto the floor inside it. Without OIDN, one warning and the
+    image as it is."""
+    try:
+        denoised = denoise_lightmap(image, settings.threads)
+    except DenoiserMissing as err:
+        result.warnings.append(f"{err}: the lightmaps are not denoised")
+        return image
+    dark = ~(image > 0.0).any(axis=2, keepdims=True)
+    return dilate(np.where(dark, 0.0, denoised), filled, max(settings.margin, MIN_MARGIN))
+
+
+def _light(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) -> np.ndarray:
+    """(size*size,3) the pass at each texel: the albedo-weighted means of its samples' direct and gathered light
+    (Cycles' division by the colour), the colour, or Combined."""
+    count = settings.size ** 2
+    albedo = surface.albedo
+    color = _divide(group_sum(texels.texel, albedo, count), np.bincount(texels.texel, minlength=count)[:, None])
+    if settings.bake_pass == P.DIFFUSE_COLOR:
+        return color
+    total = np.zeros((count, 3))
+    if settings.bake_pass != P.DIFFUSE_INDIRECT and len(lit.lights) and settings.light_samples:
+        rng = np.random.default_rng([settings.seed, 1 << 22, len(texels)])
+        direct = direct_light(surface, lit.lights, lit.tracer, settings.light_samples, rng)[0]
+        total += _divide(group_sum(texels.texel, albedo * direct, count), group_sum(texels.texel, albedo, count))
+    if _needs_indirect(settings) and lit.vpls is not None:
+        total += _indirect(texels, surface, settings, lit)
+    if settings.bake_pass != P.COMBINED:
+        return total
+    return color * total + _divide(group_sum(texels.texel, surface.emission, count),
+                                   np.bincount(texels.texel, minlength=count)[:, None])
+
+
+def _indirect(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) -> np.ndarray:
+    """(size*size,3) Diffuse Indirect: the VPLs summed at each texel's first ``indirect_samples`` samples (with
+    interleaving, each texel with its subset by its place in the map, ``gather.summing``), the albedo-weighted
+    mean. No filter evens the interleaving out: a geometry-aware one (``gather.bilateral``) blends texels on both
+    sides of a wall standing on the floor (a closed room lit from outside got 0.16 inside), so the lightmaps gather
+    every VPL at every texel by default (``LightmapSettings.gather``)."""
+    size, count = settings.size, settings.size ** 2
+    rows = texels.first(settings.indirect_samples)
+    points, at = surface.take(rows), texels.texel[rows]
+    xy = np.stack([at % size, at // size], axis=1)
+    light = gather(points, xy, lit.vpls, lit.tracer, settings.gather, lit.d_min, lit.permutation)
+    albedo = points.albedo
+    return _divide(group_sum(at, albedo * light, count), group_sum(at, albedo, count))
