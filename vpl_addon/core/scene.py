@@ -233,6 +233,8 @@ class Scene:
     object_pass_index: np.ndarray | None = None
     object_asset: np.ndarray | None = None
     asset_names: list[str] | None = None
+    # (T,3,2) float32 per-corner UVs of the UV map lightmaps are baked in (``lightmap``); None: ``uvs``
+    bake_uvs: np.ndarray | None = None
 
     def __post_init__(self):
         if self.object_pass_index is None:
@@ -244,7 +246,7 @@ class Scene:
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
               object_id=None, object_names=None, world=(0.0, 0.0, 0.0), environment=None, textures=(),
               tangents=None, colors=None, max_bounces=8, object_pass_index=None, object_asset=None,
-              asset_names=None) -> "Scene":
+              asset_names=None, bake_uvs=None) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         n = len(tri)
@@ -255,6 +257,7 @@ class Scene:
         uvs = np.zeros((n, 3, 2)) if uvs is None else np.asarray(uvs, np.float64).reshape(n, 3, 2)
         tangents = None if tangents is None else np.asarray(tangents, np.float64).reshape(n, 3, 4)
         colors = None if colors is None else np.asarray(colors, np.float64).reshape(n, 3, 3)
+        bake_uvs = None if bake_uvs is None else np.asarray(bake_uvs, np.float64).reshape(n, 3, 2)
 
         ng = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
         area2 = np.linalg.norm(ng, axis=1)
@@ -267,6 +270,7 @@ class Scene:
         tri, ng, area2, uvs, material, object_id = (a[keep] for a in (tri, ng, area2, uvs, material, object_id))
         tangents = None if tangents is None else tangents[keep]
         colors = None if colors is None else colors[keep]
+        bake_uvs = None if bake_uvs is None else np.nan_to_num(bake_uvs[keep], nan=0.0, posinf=0.0, neginf=0.0)
         ng = ng / area2[:, None]
         if normals is None:
             sn = np.repeat(ng[:, None, :], 3, axis=1)
@@ -305,7 +309,7 @@ class Scene:
                      max_bounces=max(0, int(max_bounces)),
                      object_pass_index=None if object_pass_index is None else np.asarray(object_pass_index, np.int32),
                      object_asset=None if object_asset is None else np.asarray(object_asset, np.int64),
-                     asset_names=asset_names)
+                     asset_names=asset_names, bake_uvs=None if bake_uvs is None else bake_uvs.astype(np.float32))
 
     def without(self, objects) -> "Scene":
         """The scene without the triangles of the objects named in ``objects`` (the rest, their materials, lights,
@@ -315,7 +319,7 @@ class Scene:
         if not ids:
             return self
         keep = np.nonzero(~np.isin(self.object_id, ids))[0]
-        per_triangle = ("triangles", "normals", "uvs", "material", "object_id", "tangents", "colors")
+        per_triangle = ("triangles", "normals", "uvs", "material", "object_id", "tangents", "colors", "bake_uvs")
         return replace(self, **{name: None if getattr(self, name) is None else getattr(self, name)[keep]
                                 for name in per_triangle})
 

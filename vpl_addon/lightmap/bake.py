@@ -32,7 +32,7 @@ from ..materials.cutouts import cutouts
 from ..methods import METHODS, MethodContext, MethodSettings, place
 from ..render import _divide
 from .dilation import dilate
-from .texels import Texels, rasterise
+from .texels import Texels, bake_uvs, rasterise
 from .unocclude import unocclude
 
 DIFFUSE = "Diffuse"
@@ -53,9 +53,9 @@ class LightmapSettings:
     indirect_samples: int = 1  # samples per texel that gather the VPLs' light
     bake_pass: str = P.DIFFUSE_INDIRECT  # one of ``BAKE_PASSES``
     method: str = "ir"
-    placement: MethodSettings = field(default_factory=lambda: MethodSettings(vpls=256))
-    # every texel sees every VPL (interleave 1): see ``_indirect``
-    gather: GatherSettings = field(default_factory=lambda: GatherSettings(interleave=1))
+    placement: MethodSettings = field(default_factory=lambda: MethodSettings(vpls=4096))
+    # each texel gathers a random 16th of the VPLs (``_indirect``)
+    gather: GatherSettings = field(default_factory=lambda: GatherSettings(filter=False))
     margin: int = 16  # texels the islands grow by (Cycles' bake margin's default)
     denoise: bool = True  # OIDN's lightmap filter (``core.denoise.denoise_lightmap``)
     seed: int = 0
@@ -149,7 +149,7 @@ def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, resul
     """One object's map (size,size,4): its texels, their light in the pass, filtered, denoised and dilated."""
     name, size = scene.object_names[index], settings.size
     triangles = np.nonzero(scene.object_id == index)[0]
-    uv = scene.uvs[triangles]
+    uv = bake_uvs(scene)[triangles]
     if len(uv) and (uv.min() < 0.0 or uv.max() > 1.0):
         result.warnings.append(f"object {name!r}: its UV map reaches outside [0, 1]; the texels there are not baked")
     texels = rasterise(scene, triangles, size, settings.samples, np.random.default_rng([settings.seed, index]))
@@ -203,15 +203,25 @@ def _light(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) -> np
 
 
 def _indirect(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) -> np.ndarray:
-    """(size*size,3) Diffuse Indirect: the VPLs summed at each texel's first ``indirect_samples`` samples (with
-    interleaving, each texel with its subset by its place in the map, ``gather.summing``), the albedo-weighted
-    mean. No filter evens the interleaving out: a geometry-aware one (``gather.bilateral``) blends texels on both
-    sides of a wall standing on the floor (a closed room lit from outside got 0.16 inside), so the lightmaps gather
-    every VPL at every texel by default (``LightmapSettings.gather``)."""
-    size, count = settings.size, settings.size ** 2
+    """(size*size,3) Diffuse Indirect: the VPLs summed at each texel's first ``indirect_samples`` samples, the
+    albedo-weighted mean. With ``interleave`` t > 1 each texel sums one of the t x t disjoint subsets of the VPLs,
+    scaled to the whole set (``gather.summing``), drawn at random per texel rather than by its place in a tile: the
+    subsets' differences are then white noise, which OIDN's lightmap filter takes out, where a tile's pattern left
+    streaks; and no geometry-aware filter is needed, which blends texels on both sides of a wall that stands on
+    the floor (``gather.bilateral`` put 0.16 of the light outside a closed room on the floor inside it). On the
+    Cornell box, 4096 VPLs in 16 subsets bake the mean of Cycles' Diffuse Indirect within 1-5 % over 3 seeds, in
+    the time of 256 VPLs at every texel, whose means were 0.84-1.12 of it."""
+    count = settings.size ** 2
     rows = texels.first(settings.indirect_samples)
     points, at = surface.take(rows), texels.texel[rows]
-    xy = np.stack([at % size, at // size], axis=1)
+    xy = _subsets(len(at), settings)
     light = gather(points, xy, lit.vpls, lit.tracer, settings.gather, lit.d_min, lit.permutation)
     albedo = points.albedo
     return _divide(group_sum(at, albedo * light, count), group_sum(at, albedo, count))
+
+
+def _subsets(count: int, settings: LightmapSettings) -> np.ndarray:
+    """(count,2) the "pixel" of each gathering sample that picks its VPL subset (``gather.summing.gather``): random
+    in the interleaving tile, the same for a seed."""
+    tile = max(1, settings.gather.interleave)
+    return np.random.default_rng([settings.seed, 1 << 23]).integers(0, tile, (count, 2))

@@ -49,7 +49,7 @@ class Texels:
         """(K,) the world-space width of one texel at each sample: sqrt(triangle area / its area in texels)."""
         tri = scene.triangles[self.prim].astype(np.float64)
         area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
-        uv = scene.uvs[self.prim].astype(np.float64) * self.size
+        uv = bake_uvs(scene)[self.prim].astype(np.float64) * self.size
         e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
         texels = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
         return np.sqrt(area / np.maximum(texels, 1e-30))
@@ -60,13 +60,19 @@ class Texels:
         return np.nonzero(rank < count)[0]
 
 
+def bake_uvs(scene) -> np.ndarray:
+    """(T,3,2) the UVs lightmaps are baked in: the scene's bake UV map, or the textures' UVs without one."""
+    return scene.uvs if scene.bake_uvs is None else scene.bake_uvs
+
+
 def rasterise(scene, triangles: np.ndarray, size: int, samples: int, rng: np.random.Generator) -> Texels:
     """The ``Texels`` of the scene's ``triangles`` (row indices) in a ``size`` x ``size`` map with ``samples``
-    sample points per texel (rounded up to a square number); triangles whose UVs span no area cover nothing."""
+    sample points per texel (rounded up to a square number), in the scene's bake UV map (``Scene.bake_uvs``, else
+    its ``uvs``); triangles whose UVs span no area cover nothing."""
     grid = max(1, int(np.ceil(np.sqrt(samples))))
     cells = np.stack(np.meshgrid(np.arange(grid), np.arange(grid), indexing="xy"), -1).reshape(-1, 2)
     offsets = (cells + rng.random(cells.shape)) / grid
-    uv = np.ascontiguousarray(scene.uvs[triangles], np.float64) * size
+    uv = np.ascontiguousarray(bake_uvs(scene)[triangles], np.float64) * size
     none = np.zeros(0, np.int64)
     count = _cover(uv, offsets, size, none, none, np.zeros((0, 2)), False, none)
     texel, sub, bary = np.empty(count, np.int64), np.empty(count, np.int64), np.empty((count, 2))
