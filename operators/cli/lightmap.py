@@ -3,19 +3,15 @@
 written atomically once all are baked, one line per object with its time.
 
 The input is checked before anything is baked, one clear line per problem (``UserError``): an object that is not
-in the scene, is not a mesh or has no such UV map, a size outside 1 to 16384, an unknown pass. Objects left out
-of the bake still occlude and reflect light, and their files are not touched.
+in the scene, is not a mesh or has no such UV map (``output.lightmap_bake``, shared with the panel's operator), a
+size outside 1 to 16384, an unknown pass. Objects left out of the bake still occlude and reflect light, and their
+files are not touched.
 """
 from __future__ import annotations
 
-import os
 import sys
 import time
 
-import numpy as np
-
-from ...vpl_addon.core.camera import Camera, view_window
-from ...vpl_addon.core.exr import write_passes
 from ...vpl_addon.lightmap import BAKE_PASSES, LightmapSettings, bake
 from ...vpl_addon.lightmap.bake import MAX_SIZE
 from ...vpl_addon.methods import METHODS, MethodSettings
@@ -42,32 +38,25 @@ def add_parser(sub) -> None:
 
 
 def cmd_lightmap(args) -> int:
-    import bpy
     settings = _settings(args)
     ensure_registered()
     scene = open_blend(args.scene)
-    names = _objects(scene, args.objects, args.uv_map)
-    from ..scene.extract import ACTIVE_UV, ExtractionError, extract
-    depsgraph = bpy.context.evaluated_depsgraph_get()
+    from ..output.lightmap_bake import LightmapError, baked_objects, extracted, file_path, write_files
     t0 = time.perf_counter()
     try:
-        built, warnings = extract(depsgraph, camera=_camera(scene, depsgraph),
-                                  bake_uv=ACTIVE_UV if args.uv_map is None else args.uv_map)
-    except ExtractionError as err:
+        listed = None if args.objects is None else [n.strip() for n in args.objects.split(",") if n.strip()]
+        names = baked_objects(scene, listed, args.uv_map)
+        built, warnings = extracted(scene, names, args.uv_map)
+    except LightmapError as err:
         raise UserError(str(err)) from None
-    hidden = [name for name in names if name not in built.object_names]
-    if hidden:
-        raise UserError(f"object {hidden[0]!r} has no faces that render (hidden from render, or empty)")
     result = bake(built, names, settings)
     for message in warnings + result.warnings:
         print(f"warning: {message}", file=sys.stderr)
-    os.makedirs(args.output, exist_ok=True)
-    vpls = result.info.get("vpls", 0)
-    print(f"{vpls} VPLs placed for {len(names)} objects in {result.seconds['place']:.2f} s")
+    print(f"{result.info.get('vpls', 0)} VPLs placed for {len(names)} objects in {result.seconds['place']:.2f} s")
+    write_files(args.output, result, settings.bake_pass)
     for name in names:
-        path = os.path.join(args.output, f"{_file_name(name)}.exr")
-        write_passes(path, {settings.bake_pass: result.images[name]})
-        print(f"wrote {path}: {settings.size}x{settings.size} {settings.bake_pass}, {result.seconds[name]:.2f} s")
+        print(f"wrote {file_path(args.output, name)}: {settings.size}x{settings.size} {settings.bake_pass}, "
+              f"{result.seconds[name]:.2f} s")
     print(f"lightmaps of {len(names)} objects in {time.perf_counter() - t0:.2f} s")
     return 0
 
@@ -84,40 +73,3 @@ def _settings(args) -> LightmapSettings:
     placement = MethodSettings(vpls=args.vpls) if args.vpls else LightmapSettings().placement
     return LightmapSettings(size=args.size, samples=args.samples, bake_pass=args.bake_pass, method=args.method,
                             placement=placement, margin=args.margin, denoise=not args.no_denoise, seed=args.seed)
-
-
-def _objects(scene, listed: str | None, uv_map: str | None) -> list[str]:
-    """The names of the objects to bake: those ``listed`` (comma-separated) or every mesh that renders; each a
-    mesh with UV map ``uv_map`` (or any UV map, without one)."""
-    if listed is None:
-        names = [obj.name for obj in scene.objects if obj.type == "MESH" and not obj.hide_render]
-        if not names:
-            raise UserError(f"scene {scene.name!r} has no mesh to bake")
-    else:
-        names = [name.strip() for name in listed.split(",") if name.strip()]
-    for name in names:
-        obj = scene.objects.get(name)
-        if obj is None:
-            raise UserError(f"--objects: no object {name!r} in scene {scene.name!r}")
-        if obj.type != "MESH":
-            raise UserError(f"object {name!r} is a {obj.type.lower()}, not a mesh: only meshes are baked")
-        layers = obj.data.uv_layers
-        if uv_map is not None and uv_map not in layers:
-            raise UserError(f"object {name!r} has no UV map {uv_map!r} (it has: "
-                            f"{', '.join(layer.name for layer in layers) or 'none'})")
-        if not len(layers):
-            raise UserError(f"object {name!r} has no UV map: unwrap it (e.g. Smart UV Project) before baking")
-    return names
-
-
-def _camera(scene, depsgraph) -> Camera:
-    """The scene's camera (which methods that place by the view read), or a placeholder where it has none."""
-    from ..scene.extract import camera_of
-    if scene.camera is not None and scene.camera.type == "CAMERA":
-        return camera_of(scene, depsgraph)
-    return Camera(np.eye(4), 1, 1, view_window(1, 1, orthographic=True, ortho_scale=1.0), orthographic=True)
-
-
-def _file_name(name: str) -> str:
-    """An object's name as a file name: the path separators replaced."""
-    return name.replace(os.sep, "_").replace("/", "_")

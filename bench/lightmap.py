@@ -1,0 +1,125 @@
+"""Lightmaps against Cycles' bake (issue 68): time and error of our Diffuse Indirect lightmaps at several VPL budgets,
+of Cycles' bake (type DIFFUSE, pass filter INDIRECT, colour off) at several sample counts, and of that bake denoised
+by OIDN's lightmap filter, all against a Cycles bake at many samples, on the Cornell box UV-mapped per object by
+Smart UV Project (``example_blends/make_lightmapped.py``), in one run.
+
+    .venv/bin/python bench/lightmap.py [--size 128] [--reference-samples 1024] [--cycles 4,16,64]
+        [--vpls 1024,4096,16384] [--json bench/results/lightmap.json]
+
+The error is pooled over the interior texels of all objects: those whose samples all lie inside the UV map (our
+coverage 1) and a texel from the island's edge, Cycles' bake margin and ours left out. The time is the whole bake of
+all objects: Cycles' calls of ``bpy.ops.object.bake`` one object after the other (plus the filter for the denoised
+rival), ours the scene's extraction and ``lightmap.bake``. The reference is cached by scene, size and samples under
+``$VPL_GI_CACHE/lightmap``.
+"""
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import os
+import pathlib
+import time
+
+import numpy as np
+from scipy.ndimage import binary_erosion
+
+from vbnl_stages import register_extension
+from vpl_addon.core.compiled import cache_root  # noqa: E402 (vbnl_stages puts the project on the path)
+from vpl_addon.core.denoise import denoise_lightmap
+from vpl_addon.evaluation.metrics import errors
+
+ROOT = pathlib.Path(__file__).resolve().parent.parent
+SCENE = ROOT / "example_blends" / "cornell_area.blend"
+
+
+def _ints(text: str) -> list[int]:
+    return [int(v) for v in text.split(",")]
+
+
+def open_uv_box():
+    """The Cornell box opened in bpy with a Smart UV Project map "Lightmap" per mesh; the meshes' names."""
+    register_extension()
+    import bpy
+    from example_blends.make_lightmapped import unwrap
+    bpy.ops.wm.open_mainfile(filepath=str(SCENE))
+    return unwrap(bpy)
+
+
+def cycles_maps(names, size: int, samples: int) -> tuple[dict, float]:
+    """Cycles' Diffuse Indirect bake of each object, and the seconds of all of them."""
+    import bpy
+    from vpl_gi.operators.output.cycles_bake import cycles_lightmap
+    t0 = time.perf_counter()
+    maps = {name: cycles_lightmap(bpy, bpy.data.objects[name], size, samples, uv_map="Lightmap") for name in names}
+    return maps, time.perf_counter() - t0
+
+
+def reference(names, size: int, samples: int) -> dict:
+    """The reference bake, from the cache when this scene was baked at this size and these samples before."""
+    digest = hashlib.sha256(SCENE.read_bytes() + f"{size} {samples}".encode()).hexdigest()[:16]
+    path = pathlib.Path(cache_root()) / "lightmap" / f"cornell_area-{digest}.npz"
+    if path.is_file():
+        return dict(np.load(path))
+    maps, seconds = cycles_maps(names, size, samples)
+    print(f"reference: Cycles bake at {samples} samples, {seconds:.1f} s")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    np.savez_compressed(path, **maps)
+    return maps
+
+
+def ours(names, size: int, vpls: int) -> tuple[dict, float, dict]:
+    """Our maps at ``vpls`` virtual lights (RGB and the coverage), and the seconds of extraction and bake."""
+    import bpy
+    from vpl_gi.operators.scene.extract import extract
+    from vpl_gi.vpl_addon.lightmap import LightmapSettings, bake
+    from vpl_gi.vpl_addon.methods import MethodSettings
+    t0 = time.perf_counter()
+    scene, _ = extract(bpy.context.evaluated_depsgraph_get(), bake_uv="Lightmap")
+    result = bake(scene, names, LightmapSettings(size=size, placement=MethodSettings(vpls=vpls)))
+    seconds = time.perf_counter() - t0
+    return {n: result.images[n][..., :3] for n in names}, seconds, {n: result.images[n][..., 3] for n in names}
+
+
+def pooled(maps: dict, ref: dict, interior: dict) -> dict:
+    """``errors`` of the interior texels of all objects at once."""
+    got = np.concatenate([maps[n][interior[n]] for n in ref])[:, None]
+    want = np.concatenate([ref[n][interior[n]] for n in ref])[:, None]
+    return errors(got, want)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--size", type=int, default=128)
+    ap.add_argument("--reference-samples", type=int, default=1024)
+    ap.add_argument("--cycles", type=_ints, default=[4, 16, 64], help="Cycles' samples per texel")
+    ap.add_argument("--vpls", type=_ints, default=[1024, 4096, 16384], help="our VPL budgets")
+    ap.add_argument("--json", help="where to write the rows")
+    args = ap.parse_args()
+    names = open_uv_box()
+    ours(names, 16, 64)  # compiles the kernels before anything is timed
+    ref = reference(names, args.size, args.reference_samples)
+    _, _, coverage = ours(names, args.size, 64)
+    interior = {n: binary_erosion(coverage[n] == 1.0, iterations=1) for n in names}
+    rows = []
+    for samples in args.cycles:
+        maps, seconds = cycles_maps(names, args.size, samples)
+        rows.append({"what": f"Cycles bake {samples} spp", "seconds": seconds, **pooled(maps, ref, interior)})
+        t0 = time.perf_counter()
+        denoised = {n: denoise_lightmap(maps[n]) for n in names}
+        rows.append({"what": f"Cycles bake {samples} spp + OIDN", "seconds": seconds + time.perf_counter() - t0,
+                     **pooled(denoised, ref, interior)})
+    for vpls in args.vpls:
+        maps, seconds, _ = ours(names, args.size, vpls)
+        rows.append({"what": f"VPL GI ir {vpls} VPLs", "seconds": seconds, **pooled(maps, ref, interior)})
+    print(f"{'':32} {'seconds':>8} {'rMAE':>8} {'mean':>8}")
+    for row in rows:
+        print(f"{row['what']:32} {row['seconds']:8.2f} {row['rmae']:8.4f} {row['mean_ratio']:8.4f}")
+    if args.json:
+        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
+        with open(args.json, "w") as f:
+            json.dump({"size": args.size, "reference_samples": args.reference_samples, "rows": rows}, f, indent=1)
+
+
+if __name__ == "__main__":
+    main()
