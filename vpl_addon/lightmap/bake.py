@@ -1,6 +1,6 @@
 """Lightmaps of several objects from one set of virtual lights: each object's texel G-buffer (``texels``), its
 samples pushed out of other geometry (``unocclude``), the direct light and the VPLs' light gathered at them, the
-passes of Cycles' bake types, the interleaving filtered out, OIDN's lightmap filter, the islands dilated.
+passes of Cycles' bake types, OIDN's lightmap filter, the islands dilated, the seams stitched.
 
 The VPLs are placed once for all the objects baked (``methods.place``), so every texel of every object is lit by
 the same set: the cost of placing them is paid once however many objects there are, where Cycles' bake traces its
@@ -32,6 +32,7 @@ from ..materials.cutouts import cutouts
 from ..methods import METHODS, MethodContext, MethodSettings, place
 from ..render import _divide
 from .dilation import dilate
+from .seams import seam_pairs, stitch
 from .texels import Texels, bake_uvs, rasterise
 from .unocclude import unocclude
 
@@ -58,6 +59,7 @@ class LightmapSettings:
     gather: GatherSettings = field(default_factory=lambda: GatherSettings(filter=False))
     margin: int = 16  # texels the islands grow by (Cycles' bake margin's default)
     denoise: bool = True  # OIDN's lightmap filter (``core.denoise.denoise_lightmap``)
+    stitch: bool = True  # one value on both sides of each UV seam (``seams``)
     seed: int = 0
     threads: int | None = None
     max_bounces: int | None = None  # None: the scene's
@@ -163,6 +165,10 @@ def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, resul
     image = dilate(light.reshape(size, size, 3), filled, max(settings.margin, MIN_MARGIN))
     if settings.denoise and settings.bake_pass != P.DIFFUSE_COLOR and image.any():
         image = _denoised(image, filled, settings, result)
+    if settings.stitch:  # the ring grown again from the stitched islands
+        pairs = seam_pairs(scene.triangles[triangles], uv, size)
+        image = stitch(image.reshape(-1, 3), pairs, filled.ravel()).reshape(size, size, 3)
+        image = dilate(np.where(filled[..., None], image, 0.0), filled, max(settings.margin, MIN_MARGIN))
     out = np.concatenate([image, texels.coverage.reshape(size, size, 1)], axis=2)[::-1]  # row 0 at v = 1
     return np.ascontiguousarray(np.maximum(out, 0.0), np.float32)
 

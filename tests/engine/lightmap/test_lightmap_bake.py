@@ -116,3 +116,27 @@ def test_samples_inside_a_block_are_moved_out_of_it_and_the_others_stay():
     assert np.array_equal(after[~moved], before[~moved])
     outside = (np.abs(after[moved]) > [0.5, 0.5, 0.5]).any(axis=1) | (after[moved, 2] < -0.1)
     assert outside.all()
+
+
+def test_stitching_gives_both_sides_of_a_seam_one_value():
+    """A floor and a wall of one object meet along an edge that the UV map holds at two places: stitched, the
+    texels across the seam differ by at most a tenth of what they differ unstitched."""
+    from vpl_addon.core.scene import Materials, Scene
+    from vpl_addon.lightmap.seams import seam_pairs
+    from rooms import quad
+    floor, floor_uv = quad([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)], (0.05, 0.45))
+    wall, wall_uv = quad([(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)], (0.55, 0.95))
+    scene = Scene.build(np.concatenate([floor, wall]), Materials.make([{"name": "grey", "base_color": (0.5,) * 3}]),
+                        [PointLight("lamp", [0.5, 0.0, 0.3], [100.0] * 3)], scene_of(box_faces(*ROOM), []).camera,
+                        uvs=np.concatenate([floor_uv, wall_uv]), material=np.ones(4), object_names=["corner"])
+    size = 32
+    pairs = seam_pairs(scene.triangles, scene.uvs, size)
+    assert len(pairs) >= size // 2  # the shared edge, every half texel
+
+    def seam_difference(stitched):
+        settings = LightmapSettings(size=size, bake_pass="Diffuse Direct", stitch=stitched)
+        image = bake(scene, ["corner"], settings).images["corner"][::-1, :, :3].reshape(-1, 3)
+        return np.abs(image[pairs[:, 0]] - image[pairs[:, 1]]).mean()
+    apart, stitched = seam_difference(False), seam_difference(True)
+    print(f"seam difference: {apart:.4f} apart, {stitched:.4f} stitched")
+    assert apart > 0.05 and stitched <= 0.1 * apart
