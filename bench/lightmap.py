@@ -5,6 +5,10 @@ Smart UV Project (``example_blends/make_lightmapped.py``), in one run.
 
     .venv/bin/python bench/lightmap.py [--size 128] [--reference-samples 1024] [--cycles 4,16,64]
         [--vpls 1024,4096,16384] [--json bench/results/lightmap.json]
+    .venv/bin/python bench/lightmap.py --scaling 10,100 [--texels 163840]
+
+``--scaling`` bakes a room of N tiles, each its own object, at the same total of texels for each N (no Blender):
+the VPLs are placed once for all, so the time per texel should not grow with the number of objects.
 
 The error is pooled over the interior texels of all objects: those whose samples all lie inside the UV map (our
 coverage 1) and a texel from the island's edge, Cycles' bake margin and ours left out. The time is the whole bake of
@@ -88,6 +92,45 @@ def pooled(maps: dict, ref: dict, interior: dict) -> dict:
     return errors(got, want)
 
 
+def tiles_scene(count: int):
+    """A floor under ``count`` tiles in a grid, each tile its own UV-mapped object (the whole map), lit by one
+    point light."""
+    from vpl_addon.core.camera import Camera, view_window
+    from vpl_addon.core.scene import Materials, Scene
+    from vpl_addon.lights import PointLight
+    side = int(np.ceil(np.sqrt(count)))
+    quads = [((-4.0, -4.0), 8.0, 0.0)] + [((-4.0 + 8.0 * (i % side) / side, -4.0 + 8.0 * (i // side) / side),
+                                          0.8 * 8.0 / side, 1.0) for i in range(count)]
+    tris, uvs = [], []
+    for (x, y), width, z in quads:
+        c = np.array([(x, y, z), (x + width, y, z), (x + width, y + width, z), (x, y + width, z)])
+        tris += [c[[0, 1, 2]], c[[0, 2, 3]]]
+        uvs += [np.array([(0, 0), (1, 0), (1, 1)]), np.array([(0, 0), (1, 1), (0, 1)])]
+    names = ["floor"] + [f"tile {i}" for i in range(count)]
+    cam = Camera(np.eye(4), 1, 1, view_window(1, 1, orthographic=True, ortho_scale=1.0), orthographic=True)
+    return Scene.build(np.array(tris), Materials.make([{"name": "grey", "base_color": (0.6,) * 3}]),
+                       [PointLight("lamp", [0.0, 0.0, 3.0], [500.0] * 3)], cam, uvs=np.array(uvs),
+                       material=np.ones(len(tris)), object_id=np.repeat(np.arange(len(names)), 2),
+                       object_names=names), names[1:]
+
+
+def scaling(counts: list[int], texels: int) -> list[dict]:
+    """The bake of ``count`` tiles at ``texels`` texels in all, for each count: seconds, and per million texels."""
+    from vpl_addon.lightmap import LightmapSettings, bake
+    rows = []
+    for count in counts:
+        scene, names = tiles_scene(count)
+        size = int(round(np.sqrt(texels / count)))
+        t0 = time.perf_counter()
+        bake(scene, names, LightmapSettings(size=size))
+        seconds = time.perf_counter() - t0
+        rows.append({"objects": count, "size": size, "seconds": seconds,
+                     "seconds_per_mtexel": seconds / (count * size * size) * 1e6})
+        print(f"{count:4d} objects at {size}x{size}: {seconds:.2f} s, "
+              f"{rows[-1]['seconds_per_mtexel']:.2f} s per million texels")
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--size", type=int, default=128)
@@ -95,7 +138,15 @@ def main():
     ap.add_argument("--cycles", type=_ints, default=[4, 16, 64], help="Cycles' samples per texel")
     ap.add_argument("--vpls", type=_ints, default=[1024, 4096, 16384], help="our VPL budgets")
     ap.add_argument("--json", help="where to write the rows")
+    ap.add_argument("--scaling", type=_ints, help="object counts for the scaling line (instead of the comparison)")
+    ap.add_argument("--texels", type=int, default=10 * 128 * 128, help="texels in all, for --scaling")
     args = ap.parse_args()
+    if args.scaling:
+        scaling([1], 64)  # compiles the kernels before anything is timed
+        rows = scaling(args.scaling, args.texels)
+        if args.json:
+            _write(args.json, {"texels": args.texels, "scaling": rows})
+        return
     names = open_uv_box()
     ours(names, 16, 64)  # compiles the kernels before anything is timed
     ref = reference(names, args.size, args.reference_samples)
@@ -116,9 +167,13 @@ def main():
     for row in rows:
         print(f"{row['what']:32} {row['seconds']:8.2f} {row['rmae']:8.4f} {row['mean_ratio']:8.4f}")
     if args.json:
-        os.makedirs(os.path.dirname(os.path.abspath(args.json)), exist_ok=True)
-        with open(args.json, "w") as f:
-            json.dump({"size": args.size, "reference_samples": args.reference_samples, "rows": rows}, f, indent=1)
+        _write(args.json, {"size": args.size, "reference_samples": args.reference_samples, "rows": rows})
+
+
+def _write(path: str, table: dict) -> None:
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    with open(path, "w") as f:
+        json.dump(table, f, indent=1)
 
 
 if __name__ == "__main__":

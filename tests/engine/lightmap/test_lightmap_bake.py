@@ -140,3 +140,22 @@ def test_stitching_gives_both_sides_of_a_seam_one_value():
     apart, stitched = seam_difference(False), seam_difference(True)
     print(f"seam difference: {apart:.4f} apart, {stitched:.4f} stitched")
     assert apart > 0.05 and stitched <= 0.1 * apart
+
+
+def test_overlapping_islands_and_a_uv_map_outside_the_unit_square_are_warned_of_by_name():
+    from vpl_addon.core.scene import Materials, Scene
+    from rooms import quad
+    floor, floor_uv = quad([(-1, -1, 0), (1, -1, 0), (1, 1, 0), (-1, 1, 0)])
+    wall, wall_uv = quad([(1, -1, 0), (1, -1, 2), (1, 1, 2), (1, 1, 0)])
+    tiles = np.concatenate([floor, wall])
+    camera = scene_of(box_faces(*ROOM), []).camera
+    grey = Materials.make([{"name": "grey", "base_color": (0.5,) * 3}])
+    lamp = [PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3)]
+    stacked = Scene.build(tiles, grey, lamp, camera, uvs=np.concatenate([floor_uv, wall_uv]), material=np.ones(4),
+                          object_names=["stacked"])
+    warnings = bake(stacked, ["stacked"], LightmapSettings(size=8)).warnings
+    assert len(warnings) == 1 and "'stacked'" in warnings[0] and "overlaps" in warnings[0]
+    outside = Scene.build(tiles, grey, lamp, camera, uvs=np.concatenate([0.5 * floor_uv, 0.5 * wall_uv + 0.75]),
+                          material=np.ones(4), object_names=["spilling"])
+    warnings = bake(outside, ["spilling"], LightmapSettings(size=8)).warnings
+    assert len(warnings) == 1 and "'spilling'" in warnings[0] and "outside [0, 1]" in warnings[0]
