@@ -92,9 +92,11 @@ class LightmapResult:
 
 @dataclass
 class _Lit:
-    """What lights the texels: the tracer, the lights, the placed VPLs and the gather's clamp and VPL order."""
+    """What lights the texels: the tracer, the lights, the placed VPLs and the gather's clamp and VPL order; and
+    the scene's face normals, which ``unocclude`` reads for every object (made once: O(scene) each time)."""
     tracer: Tracer
     lights: LightSet
+    face_normals: np.ndarray
     vpls: object = None
     d_min: float = 0.0
     permutation: np.ndarray | None = None
@@ -111,7 +113,7 @@ def bake(scene, objects: list[str], settings: LightmapSettings,
         raise ValueError(f"object {missing[0]!r} is not in the scene")
     tracer = Tracer(scene.triangles, threads=settings.threads, cutouts=cutouts(scene), seed=settings.seed)
     try:
-        lit = _Lit(tracer, LightSet(scene))
+        lit = _Lit(tracer, LightSet(scene), scene.geometric_normals)
         if len(lit.lights) == 0 and settings.bake_pass != P.DIFFUSE_COLOR:
             result.warnings.append("the scene has no lights: the lightmaps are black")
         t0 = time.perf_counter()
@@ -197,7 +199,7 @@ def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, resul
     if texels.overlap > 0.01:
         result.warnings.append(f"object {name!r}: {texels.overlap:.0%} of its UV map overlaps itself; the "
                                f"overlapping texels hold the mean of the surfaces there")
-    surface, _ = unocclude(texels.surface(scene), texels.footprint(scene), lit.tracer, scene.geometric_normals)
+    surface, _ = unocclude(texels.surface(scene), texels.footprint(scene), lit.tracer, lit.face_normals)
     light = _light(texels, surface, settings, lit)
     P.check({settings.bake_pass: light}, f"lightmap of {name!r}")
     coverage = texels.coverage.reshape(size, size)
