@@ -160,3 +160,18 @@ def test_overlapping_islands_and_a_uv_map_outside_the_unit_square_are_warned_of_
                           material=np.ones(4), object_names=["spilling"])
     warnings = bake(outside, ["spilling"], LightmapSettings(size=8)).warnings
     assert len(warnings) == 1 and "'spilling'" in warnings[0] and "outside [0, 1]" in warnings[0]
+
+
+def test_nan_in_the_bake_uv_map_is_sanitised_and_the_maps_stay_finite(lit_room):
+    """A bake UV map with NaN and infinities (a broken import) bakes as renders treat such data: zero UVs
+    there, every texel finite."""
+    from vpl_addon.core.scene import Scene
+    uvs = lit_room.uvs.astype(np.float64)
+    uvs[0, 0] = np.nan
+    uvs[1, 2] = np.inf
+    scene = Scene.build(lit_room.triangles, lit_room.materials, lit_room.lights, lit_room.camera,
+                        uvs=lit_room.uvs, material=lit_room.material, object_id=lit_room.object_id,
+                        object_names=lit_room.object_names, bake_uvs=uvs)
+    assert np.isfinite(scene.bake_uvs).all()
+    for image in bake(scene, scene.object_names, LightmapSettings(size=8)).images.values():
+        assert np.isfinite(image).all() and (image >= 0.0).all()
