@@ -1,9 +1,9 @@
 """Everything that touches bpy: extraction, settings, the render engine, panels, Cycles references, the CLI."""
-from .output import bake
+from .output import bake, lightmap_bake
 from .engine import render_engine as engine
 from .ui import panels, properties
 
-MODULES = (properties, engine, panels, bake)
+MODULES = (properties, engine, panels, bake, lightmap_bake)
 
 
 def register():

@@ -10,6 +10,7 @@ Subpackages by kind, each importing only its own or a lower layer (checked by ``
     sequence    state kept between frames, motion, path verification                   ... paths
     methods     one subpackage per paper, with the modules only it uses                ... sequence
     render.py   one frame: extraction's ``Scene`` in, passes out                         everything above
+    lightmap    lightmaps of objects' UV maps from one VPL set (Cycles' bake types)     render and all above
     progressive.py  the viewport's progressive render on a background thread             render and all above
     evaluation  metrics, comparison with Cycles, temporal error, convergence            core (and itself)
 

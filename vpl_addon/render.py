@@ -122,10 +122,6 @@ class RenderResult:
 GLOSSY_SAMPLING = 2.0  # a rough coat's gathering samples against its share of the reflectance (``glossy_samples``)
 
 
-def _divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
-    """Light over colour per channel, zero where the colour is (Cycles' pass division)."""
-    return np.where(color > 0.0, light / np.where(color > 0.0, color, 1.0), 0.0)
-
 
 def denoise_combined(combined: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: int | None, progress,
                      warnings: list[str], what: str, prefilter: str, quality: str, samples: int,
@@ -482,7 +478,7 @@ def _indirect(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.
         lobes.append(shiny)
     at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
     albedo = gbuf.tinted(surf.albedo[rows], rows)
-    frame.indirect[pixels] = _divide(group_sum(at, albedo * light, count), group_sum(at, albedo, count))
+    frame.indirect[pixels] = P.divide(group_sum(at, albedo * light, count), group_sum(at, albedo, count))
     if plan.filtering:
         _guide(frame, gbuf, pixels, lobes)
 
@@ -545,16 +541,16 @@ def _accumulate(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.rando
             images[P.ENVIRONMENT][pixels] = background
     images[P.DIFFUSE_COLOR][pixels] = gbuf.splat(surf.albedo, True)
     if P.DIFFUSE_DIRECT in want:
-        images[P.DIFFUSE_DIRECT][pixels] = _divide(gbuf.splat(surf.albedo * direct, True),
+        images[P.DIFFUSE_DIRECT][pixels] = P.divide(gbuf.splat(surf.albedo * direct, True),
                                                    images[P.DIFFUSE_COLOR][pixels])
     if through is not None:
         _guard(settings, "direct light", {P.DIFFUSE_INDIRECT: through})
         glass_light = gbuf.splat(surf.albedo * through, True)
         images[P.COMBINED][pixels, :3] += glass_light
-        frame.glazed[pixels] = _divide(glass_light, images[P.DIFFUSE_COLOR][pixels])
+        frame.glazed[pixels] = P.divide(glass_light, images[P.DIFFUSE_COLOR][pixels])
     if lobe is not None:
         color = frame.glossy_color[pixels] = gbuf.splat(lobe.color, True)
-        for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, _divide(gbuf.splat(glossy, True), color))):
+        for name, image in ((P.GLOSSY_COLOR, color), (P.GLOSSY_DIRECT, P.divide(gbuf.splat(glossy, True), color))):
             if name in want:
                 images[name][pixels] = image
     emitted = gbuf.splat(surf.emission, True) + lamps if {P.EMIT, P.DENOISING_ALBEDO} & want else None
@@ -576,7 +572,7 @@ def _filter(job: _Job, timing: dict[str, float]) -> np.ndarray | None:
     indirect light in Combined (W*H,3) when the denoiser takes it apart (``denoise_combined``), else None."""
     settings, plan, frame = job.settings, job.plan, job.frame
     t0 = time.perf_counter()
-    reflected = _divide(frame.shine, frame.shine_color)  # Glossy Indirect
+    reflected = P.divide(frame.shine, frame.shine_color)  # Glossy Indirect
     if plan.filtering:
         frame.indirect = _smooth(job, frame.indirect, 0)
         _guard(settings, "filter", {P.DIFFUSE_INDIRECT: frame.indirect})

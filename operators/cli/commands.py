@@ -1,4 +1,4 @@
-"""``python -m vpl_addon COMMAND``: render, reference and compare from the command line.
+"""``python -m vpl_addon COMMAND``: render, bake, lightmap, reference and compare from the command line.
 
 Every failure the user can cause (missing file, no camera, unwritable output, ...) ends as one line
 ``vpl_addon: error: ...`` on stderr and a non-zero exit status, never a traceback.
@@ -244,7 +244,8 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="python -m vpl_addon",
                                 description="VPL GI: indirect light with virtual lights, judged against Cycles.")
     sub = p.add_subparsers(dest="command", required=True)
-    for add in (_render_parser, _bake_parser, _reference_parser, _compare_parser, _bench_parser, _scenes_parser):
+    for add in (_render_parser, _bake_parser, _lightmap_parser, _reference_parser, _compare_parser, _bench_parser,
+                _scenes_parser):
         add(sub)
     return p
 
@@ -281,6 +282,12 @@ def _bake_parser(sub) -> None:
     bk.add_argument("--chunk-size", type=int, metavar="FRAMES",
                     help="frames per chunk with --workers or --scheduler (default 6)")
     bk.set_defaults(run=cmd_bake)
+
+
+def _lightmap_parser(sub) -> None:
+    """``lightmap``: each mesh's light baked into its UV map (``lightmap``)."""
+    from .lightmap import add_parser
+    add_parser(sub)
 
 
 def _reference_parser(sub) -> None:

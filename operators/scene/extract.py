@@ -20,6 +20,7 @@ from .unsupported import Unsupported
 from .world_bake import BakeError, baked_world
 
 GEOMETRY_TYPES = {"MESH", "CURVE", "SURFACE", "FONT", "META"}
+ACTIVE_UV = ""  # ``extract``'s bake UV map: each mesh's own render UV map
 
 
 class ExtractionError(RuntimeError):
@@ -36,9 +37,11 @@ def _matrix(m) -> np.ndarray:
     return np.array([list(row) for row in m], np.float64)
 
 
-def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warnings: list[str]):
-    """(triangles, normals, uvs, material ids, object ids, tangents or None, colours or None) of a geometry object
-    in world space."""
+def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warnings: list[str],
+                 bake_uv: str | None = None):
+    """(triangles, normals, uvs, material ids, object ids, tangents or None, colours or None, bake UVs or None)
+    of a geometry object in world space; the bake UVs those of UV map ``bake_uv`` (``ACTIVE_UV``: the one
+    rendering uses), None when not asked for or the mesh has no UV map."""
     mesh = obj.to_mesh()
     try:
         mesh.calc_loop_triangles()
@@ -69,7 +72,10 @@ def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warni
         if any(materials.normal_mapped(i) for i in slots):
             tangents = _tangents(obj, mesh, materials, slots, m, mirrored, warnings)
             tangents = None if tangents is None else tangents[lidx]
-        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32), tangents, colors
+        baked = None
+        if bake_uv is not None and _uv_layer(mesh, bake_uv or None) is not None:
+            baked = _array(_uv_layer(mesh, bake_uv or None).data, "uv", 2)[lidx]
+        return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32), tangents, colors, baked
     finally:
         obj.to_mesh_clear()
 
@@ -385,10 +391,13 @@ class _Objects:
         return self.names[obj.name]
 
 
-def extract(depsgraph, progress=None, camera: Camera | None = None) -> tuple[Scene, list[str]]:
+def extract(depsgraph, progress=None, camera: Camera | None = None,
+            bake_uv: str | None = None) -> tuple[Scene, list[str]]:
     """The evaluated scene of ``depsgraph`` as engine arrays, and the warnings met on the way. ``progress(text)`` hears
     of long steps (Cycles baking the world) and may return False to stop them: ``Cancelled``. ``camera``: the view
-    to render instead of the scene's camera (the viewport's)."""
+    to render instead of the scene's camera (the viewport's). ``bake_uv``: the name of the UV map lightmaps are
+    baked in (``ACTIVE_UV``: each mesh's render UV map), read into ``Scene.bake_uvs`` (zero where a mesh has
+    none); None reads none."""
     scene = depsgraph.scene_eval
     warnings: list[str] = []
     camera = camera_of(depsgraph.scene, depsgraph) if camera is None else camera
@@ -408,14 +417,14 @@ def extract(depsgraph, progress=None, camera: Camera | None = None) -> tuple[Sce
                     warnings.append(f"light {obj.name!r}: {broken}; it gives no light")
                 lights.append(light)
         elif obj.type in GEOMETRY_TYPES:
-            arrays = _mesh_arrays(obj, inst.matrix_world, materials, objects.id_of(inst), warnings)
+            arrays = _mesh_arrays(obj, inst.matrix_world, materials, objects.id_of(inst), warnings, bake_uv)
             arrays = _without(arrays, unsupported.volume_faces(obj, materials))
             if arrays is not None:
                 parts.append(arrays)
         else:
             continue  # empties, cameras...: nothing of theirs renders
         unsupported.instance(inst, materials)
-    tangents = colors = None
+    tangents = colors = baked = None
     if parts:
         triangles, normals, uvs, material, object_id = (np.concatenate(a) for a in list(zip(*parts))[:5])
         if any(p[5] is not None for p in parts):  # the rest are made from UVs by Scene.build
@@ -423,6 +432,8 @@ def extract(depsgraph, progress=None, camera: Camera | None = None) -> tuple[Sce
                                        for p in parts])
         if any(p[6] is not None for p in parts):
             colors = np.concatenate([np.zeros((len(p[0]), 3, 3)) if p[6] is None else p[6] for p in parts])
+        if bake_uv is not None:
+            baked = np.concatenate([np.zeros((len(p[0]), 3, 2)) if p[7] is None else p[7] for p in parts])
     else:
         triangles = normals = np.zeros((0, 3, 3))
         uvs, material, object_id = np.zeros((0, 3, 2)), np.zeros(0, np.int32), np.zeros(0, np.int32)
@@ -434,5 +445,6 @@ def extract(depsgraph, progress=None, camera: Camera | None = None) -> tuple[Sce
                         object_id=object_id, object_names=list(objects.names) or ["none"], world=world,
                         environment=environment, textures=materials.textures, tangents=tangents, colors=colors,
                         max_bounces=bounces, object_pass_index=objects.pass_index or None,
-                        object_asset=objects.asset or None, asset_names=list(objects.assets) or None)
+                        object_asset=objects.asset or None, asset_names=list(objects.assets) or None,
+                        bake_uvs=baked)
     return built, warnings

@@ -177,8 +177,34 @@ class RENDER_PT_vpl_gi_performance(_VPLGIPanel, bpy.types.Panel):
         sub.prop(render, "threads")
 
 
+# the Bake Lightmaps panel's settings by group: what is baked, how well, where it goes
+LIGHTMAP_GROUPS = (
+    ("Bake", ("objects", "uv_map", "bake_pass")),
+    ("Quality", ("size", "samples", "vpls", "margin", "denoise")),
+    ("Output", ("target",)),
+)
+
+
+class RENDER_PT_vpl_gi_lightmaps(_VPLGIPanel, bpy.types.Panel):
+    """Lightmaps of the chosen meshes from one set of virtual lights (``output.lightmap_bake``)."""
+    bl_label = "Bake Lightmaps"
+    bl_context = "render"
+    bl_options = {"DEFAULT_CLOSED"}
+
+    def draw(self, context):
+        props = context.scene.vpl_gi_lightmap
+        self.layout.use_property_split = True
+        for heading, names in LIGHTMAP_GROUPS:
+            group = self.layout.column(heading=heading)
+            for name in names:
+                group.prop(props, name)
+        if props.target == "IMAGE_FILES":
+            group.prop(props, "directory")
+        self.layout.operator("vpl_gi.bake_lightmaps", icon="RENDER_STILL")
+
+
 CLASSES = (RENDER_PT_vpl_gi, RENDER_PT_vpl_gi_viewport, RENDER_PT_vpl_gi_light_paths,
-           RENDER_PT_vpl_gi_film, RENDER_PT_vpl_gi_performance,
+           RENDER_PT_vpl_gi_film, RENDER_PT_vpl_gi_performance, RENDER_PT_vpl_gi_lightmaps,
            VIEWLAYER_PT_vpl_gi_passes, DATA_PT_vpl_gi_area_spread)
 
 

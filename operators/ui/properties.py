@@ -7,12 +7,13 @@ import bpy
 
 from ...vpl_addon.core.denoise import CLEAN_GUIDES
 from ...vpl_addon.gather.summing import GatherSettings
+from ...vpl_addon.lightmap import BAKE_PASSES, LightmapSettings
 from ...vpl_addon.methods import METHODS, NONE, PLACEMENT, MethodSettings
 from ...vpl_addon.paths.data_passes import Mist
 from ...vpl_addon.progressive import ViewportSettings
 from ...vpl_addon.render import RenderSettings
 
-_RENDER, _GATHER, _VIEW = RenderSettings(), GatherSettings(), ViewportSettings()
+_RENDER, _GATHER, _VIEW, _LIGHTMAP = RenderSettings(), GatherSettings(), ViewportSettings(), LightmapSettings()
 
 MIST_FALLOFF = {"QUADRATIC": 2.0, "LINEAR": 1.0, "INVERSE_QUADRATIC": 0.5}  # the exponents Cycles gives them
 
@@ -199,11 +200,48 @@ class VPLGISettings(bpy.types.PropertyGroup):
 VPLGISettings.__annotations__.update({setting.prop: _property(setting) for setting in PLACEMENT})
 
 
+class LightmapProperties(bpy.types.PropertyGroup):
+    """The Lightmaps panel's settings (``scene.vpl_gi_lightmap``), defaults from ``lightmap.LightmapSettings``."""
+    objects: bpy.props.EnumProperty(
+        name="Objects", default="SELECTED", description="Which meshes are baked",
+        items=(("SELECTED", "Selected", "The selected meshes"), ("ALL", "All", "Every mesh that renders")))
+    uv_map: bpy.props.StringProperty(
+        name="UV Map", default="", description="The UV map baked into (empty: each mesh's active render UV map)")
+    size: bpy.props.IntProperty(name="Size", default=_LIGHTMAP.size, min=1, max=16384,
+                                description="Texels per side of each object's map (an image node's own size "
+                                            "is replaced)")
+    bake_pass: bpy.props.EnumProperty(
+        name="Pass", default=_LIGHTMAP.bake_pass, description="What is baked, in the meaning of Cycles' bake types",
+        items=tuple((name, name, f"Cycles' bake of {name}") for name in BAKE_PASSES))
+    samples: bpy.props.IntProperty(name="Samples", default=_LIGHTMAP.samples, min=1, soft_max=64,
+                                   description="Sample points per texel")
+    vpls: bpy.props.IntProperty(name="VPLs", default=_LIGHTMAP.placement.vpls, min=1, soft_max=1 << 16,
+                                description="Virtual lights for all the baked objects at once")
+    margin: bpy.props.IntProperty(name="Margin", default=_LIGHTMAP.margin, min=0, soft_max=64,
+                                  description="Texels each island grows by (at least 2)")
+    denoise: bpy.props.BoolProperty(name="Denoise", default=_LIGHTMAP.denoise,
+                                    description="Denoise each map with OpenImageDenoise's lightmap filter")
+    target: bpy.props.EnumProperty(
+        name="Target", default="IMAGE_FILES", description="Where the maps go",
+        items=(("IMAGE_FILES", "Image Files", "One <object name>.exr per object in the folder"),
+               ("IMAGE_NODE", "Active Image Node", "The image of the active Image Texture node of each object's "
+                                                   "active material, as Cycles' bake writes")))
+    directory: bpy.props.StringProperty(name="Folder", default="//lightmaps/", subtype="DIR_PATH",
+                                        description="Folder of the image files")
+
+
+CLASSES = (VPLGISettings, LightmapProperties)
+
+
 def register():
-    bpy.utils.register_class(VPLGISettings)
+    for cls in CLASSES:
+        bpy.utils.register_class(cls)
     bpy.types.Scene.vpl_gi = bpy.props.PointerProperty(type=VPLGISettings)
+    bpy.types.Scene.vpl_gi_lightmap = bpy.props.PointerProperty(type=LightmapProperties)
 
 
 def unregister():
+    del bpy.types.Scene.vpl_gi_lightmap
     del bpy.types.Scene.vpl_gi
-    bpy.utils.unregister_class(VPLGISettings)
+    for cls in reversed(CLASSES):
+        bpy.utils.unregister_class(cls)

@@ -117,6 +117,24 @@ def denoise(color: np.ndarray, albedo: np.ndarray, normal: np.ndarray, threads: 
         device.release()
 
 
+def denoise_lightmap(color: np.ndarray, threads: int | None = None,
+                     progress: Callable[[float], bool] | None = None, quality: str = "HIGH") -> np.ndarray:
+    """(H,W,3) float32 baked light ``color`` (H,W,3, linear, rows top first) denoised by OIDN's lightmap filter
+    (``RTLightmap``: HDR colour alone, no guides, as OIDN documents it for baked irradiance), on ``threads`` CPU
+    threads, at Cycles' ``quality``; ``progress`` as ``denoise``'s."""
+    check("NONE", quality)
+    oidn = _oidn()
+    device = oidn.Device(oidn.OIDN_DEVICE_TYPE_CPU)
+    if threads:
+        device.set_int("numThreads", int(threads))
+    device.commit()
+    try:
+        return _filtered(oidn, device, {"color": _float3(color)}, progress, getattr(oidn, f"OIDN_QUALITY_{quality}"),
+                         "RTLightmap")[::-1]
+    finally:
+        device.release()
+
+
 def prefilter_for(prefilter: str, samples: int) -> str:
     """The prefilter that gives Cycles' ``prefilter`` on our guides averaged over ``samples`` camera samples per
     pixel: *Accurate* runs as *None* from ``CLEAN_GUIDES`` samples on, where the guides are clean; the others as
@@ -147,14 +165,15 @@ def _float3(image: np.ndarray) -> np.ndarray:
 
 
 def _filtered(oidn, device, images: dict[str, np.ndarray], keep_going: Callable[[float], bool] | None,
-              quality: int, **flags) -> np.ndarray:
-    """One RT filter run on ``images`` (OIDN input names: color, albedo, normal) at OIDN's ``quality``; its output
-    has the shape of the first. A guide given alone is denoised itself (OIDN's prefiltering of auxiliary images).
-    ``keep_going(done)`` hears the run's progress (0 to 1) and stops it by returning False."""
+              quality: int, kind: str = "RT", **flags) -> np.ndarray:
+    """One run of OIDN's filter ``kind`` (``RT``, or ``RTLightmap``) on ``images`` (OIDN input names: color,
+    albedo, normal) at OIDN's ``quality``; its output has the shape of the first. A guide given alone is denoised
+    itself (OIDN's prefiltering of auxiliary images). ``keep_going(done)`` hears the run's progress (0 to 1) and
+    stops it by returning False."""
     first = next(iter(images.values()))
     height, width = first.shape[:2]
     out = np.zeros_like(first)
-    rt = oidn.Filter(device, "RT")
+    rt = oidn.Filter(device, kind)
     stopped = []
     if keep_going is not None:
         ffi, set_monitor = _progress_setter()

@@ -63,6 +63,12 @@ CHANNELS.update({f"{kind}{number:02d}": 4 for kind in CRYPTOMATTE for number in 
 SIGNED = {NORMAL, POSITION, DENOISING_NORMAL} | {name for name in CHANNELS if name.startswith(CRYPTOMATTE)}
 
 
+def divide(light: np.ndarray, color: np.ndarray) -> np.ndarray:
+    """Light over colour per channel, zero where the colour is (Cycles' pass division: a light pass is the light a
+    pixel's samples reflect over the colour they reflect it with)."""
+    return np.where(color > 0.0, light / np.where(color > 0.0, color, 1.0), 0.0)
+
+
 def cryptomatte_passes(kind: str, levels: int) -> tuple[str, ...]:
     """The pass names that hold ``levels`` ranks of a Cryptomatte kind, as Blender names them."""
     return tuple(f"{kind}{number:02d}" for number in range(min(-(-levels // 2), CRYPTOMATTE_PASSES)))

@@ -193,6 +193,8 @@ class Scene:
     object_pass_index: np.ndarray | None = None
     object_asset: np.ndarray | None = None
     asset_names: list[str] | None = None
+    # (T,3,2) float32 per-corner UVs of the UV map lightmaps are baked in (``lightmap``); None: ``uvs``
+    bake_uvs: np.ndarray | None = None
 
     def __post_init__(self):
         if self.object_pass_index is None:
@@ -204,7 +206,7 @@ class Scene:
     def build(triangles, materials: Materials, lights, camera, *, normals=None, uvs=None, material=None,
               object_id=None, object_names=None, world=(0.0, 0.0, 0.0), environment=None, textures=(),
               tangents=None, colors=None, max_bounces=8, object_pass_index=None, object_asset=None,
-              asset_names=None) -> "Scene":
+              asset_names=None, bake_uvs=None) -> "Scene":
         """Assemble a scene from raw arrays, dropping triangles that cannot be traced or shaded."""
         tri = np.asarray(triangles, np.float64).reshape(-1, 3, 3)
         object_names = list(object_names or ["object"])
@@ -214,6 +216,9 @@ class Scene:
         dropped = _dropped(object_id[~keep], object_names)
         tri, ng, area2, uvs, material, object_id = (a[keep] for a in (tri, ng, area2, uvs, material, object_id))
         normals, tangents, colors = (None if a is None else a[keep] for a in (normals, tangents, colors))
+        if bake_uvs is not None:  # the lightmap's UV map (``lightmap``), kept apart from the textures' UVs
+            bake_uvs = np.nan_to_num(np.asarray(bake_uvs, np.float64).reshape(len(keep), 3, 2)[keep], nan=0.0,
+                                     posinf=0.0, neginf=0.0)
         ng = ng / area2[:, None]
         sn = _shading_normals(normals, ng)
         uvs = np.nan_to_num(uvs, nan=0.0, posinf=0.0, neginf=0.0)
@@ -235,7 +240,7 @@ class Scene:
                      max_bounces=max(0, int(max_bounces)),
                      object_pass_index=None if object_pass_index is None else np.asarray(object_pass_index, np.int32),
                      object_asset=None if object_asset is None else np.asarray(object_asset, np.int64),
-                     asset_names=asset_names)
+                     asset_names=asset_names, bake_uvs=None if bake_uvs is None else bake_uvs.astype(np.float32))
 
     def without(self, objects) -> "Scene":
         """The scene without the triangles of the objects named in ``objects`` (the rest, their materials, lights,
@@ -245,7 +250,7 @@ class Scene:
         if not ids:
             return self
         keep = np.nonzero(~np.isin(self.object_id, ids))[0]
-        per_triangle = ("triangles", "normals", "uvs", "material", "object_id", "tangents", "colors")
+        per_triangle = ("triangles", "normals", "uvs", "material", "object_id", "tangents", "colors", "bake_uvs")
         return replace(self, **{name: None if getattr(self, name) is None else getattr(self, name)[keep]
                                 for name in per_triangle})
 
