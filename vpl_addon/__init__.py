@@ -11,6 +11,7 @@ Subpackages by kind, each importing only its own or a lower layer (checked by ``
     methods     one subpackage per paper, with the modules only it uses                ... sequence
     render.py   one frame: extraction's ``Scene`` in, passes out                         everything above
     progressive.py  the viewport's progressive render on a background thread             render and all above
+    precompile.py   the kernels compiled before the first render, on a background thread  render and all above
     evaluation  metrics, comparison with Cycles, temporal error, convergence            core (and itself)
 
 Blender's side (``operators/``) builds a ``core.scene.Scene`` and calls ``render.render`` (or, for the 3D view,

@@ -183,9 +183,9 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
             FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
                               "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds,
                               "animated": sequence.animated})
-        LAST_STATS.update(seconds={"extract": t_extract, "kernels": t_wait, **result.seconds}, rays=result.rays, threads=result.threads,
-                          width=built.camera.width, height=built.camera.height, samples=settings.samples,
-                          method=settings.method, info=result.info, bands_shown=len(bands))
+        LAST_STATS.update(seconds={"extract": t_extract, "kernels": t_wait, **result.seconds}, rays=result.rays,
+                          threads=result.threads, width=built.camera.width, height=built.camera.height,
+                          samples=settings.samples, method=settings.method, info=result.info, bands_shown=len(bands))
         self._write(view_layer.name, result.passes, _cryptomatte_metadata(view_layer.name, passes, built))
 
     def _kernels_ready(self, method: str) -> bool:

@@ -41,8 +41,8 @@ def rounds(tmp_path_factory) -> dict[str, tuple[dict, pathlib.Path]]:
         out.mkdir()
         env = {**os.environ, "BLENDER_USER_EXTENSIONS": str(base / "extensions"),
                "BLENDER_USER_CONFIG": str(base / "config"), "VPL_GI_CACHE": str(base / "cache")}
-        proc = subprocess.run([python, str(SCRIPT), str(zip_path), str(out)], capture_output=True, text=True,
-                              timeout=900, env=env, cwd=base)
+        proc = subprocess.run([str(ROOT / python), str(SCRIPT), str(zip_path), str(out)], capture_output=True,
+                              text=True, timeout=900, env=env, cwd=base)
         assert proc.returncode == 0, f"Blender {version}: exit {proc.returncode}\n{proc.stdout[-3000:]}" \
                                      f"\n{proc.stderr[-3000:]}"
         line = next(l for l in proc.stdout.splitlines() if l.startswith("FIGURES "))
