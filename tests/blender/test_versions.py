@@ -88,7 +88,15 @@ def test_every_version_renders_the_reference_versions_passes(rounds):
     for version, (_, out) in rounds.items():
         passes = read(out / "first.exr")
         assert set(passes) == set(reference), version
-        ours, ref = passes["Diffuse Indirect"][..., :3], reference["Diffuse Indirect"][..., :3]
+        ours, ref = blocks(passes["Diffuse Indirect"]), blocks(reference["Diffuse Indirect"])
         rmae = float(np.mean(np.abs(ours - ref) / (ref + 0.01 * ref.mean())))
-        assert rmae < 0.1, (version, rmae)
+        assert rmae < 0.05, (version, rmae)
         assert abs(ours.mean() / ref.mean() - 1.0) < 0.03, (version, ours.mean(), ref.mean())
+
+
+def blocks(image: np.ndarray, size: int = 8) -> np.ndarray:
+    """The RGB of ``image`` averaged over blocks of ``size`` pixels square: the 4-sample renders' noise averaged out
+    (4.2 and 4.5 build the scene a little differently from 5.x, Diffuse Color 0.1 % apart, so their VPLs and
+    fireflies fall elsewhere: per pixel the rMAE against 5.0 is 0.12, per 8x8 block 0.021; 5.2's is 0)."""
+    h, w = image.shape[0] // size * size, image.shape[1] // size * size
+    return image[:h, :w, :3].reshape(h // size, size, w // size, size, 3).mean(axis=(1, 3))
