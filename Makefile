@@ -3,46 +3,50 @@ PYTHON ?= python3.11
 VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
-# Runtime wheels bundled into the extension, one set per platform of blender_manifest.toml (cp311: Blender 4.2-5.0
-# bundle Python 3.11 and numpy). embreex 4.4 has macOS wheels for 13.0 or newer only; scipy's are the widest ones that
-# pip picks for macOS 13 (OpenBLAS builds, not the macOS 14 Accelerate ones).
+# Runtime wheels bundled into the extension, one set per platform of blender_manifest.toml, each for every Python the
+# supported Blenders bundle: cp311 (4.2 LTS to 5.0) and cp313 (5.1 and newer); Blender's installer unpacks those
+# matching its own. These versions are the one place the bundled wheels are pinned: the manifest's `wheels` list names
+# exactly `make -s print-wheels` (tests/blender/test_extension.py checks it). embreex 4.4 has macOS wheels for 13.0 or
+# newer only; scipy's are the widest ones that pip picks for macOS 13 (OpenBLAS builds, not the macOS 14 Accelerate
+# ones). numba 0.68 / llvmlite 0.50 accept numpy 1.26 to 2.5 (what Blender 4.2 to 5.2 ship); numba's macOS x86-64
+# wheels end at 0.62.1, which accepts numpy <= 2.3 only, so on an Intel Mac the kernels load in Blender 4.2 to 5.0 and
+# not in 5.1 or newer (numpy 2.5), where the add-on registers and says so (`dependencies.py`).
+PYTHONS := 311 313
 EMBREEX_VERSION := 4.4.0.post1
 SCIPY_VERSION := 1.17.1
-WHEELS_LINUX_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl \
-	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-manylinux_2_27_x86_64.manylinux_2_28_x86_64.whl
-WHEELS_WINDOWS_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-win_amd64.whl \
-	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-win_amd64.whl
-WHEELS_MACOS_ARM64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-macosx_13_0_arm64.whl \
-	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-macosx_12_0_arm64.whl
-WHEELS_MACOS_X64 := wheels/embreex-$(EMBREEX_VERSION)-cp311-cp311-macosx_13_0_x86_64.whl \
-	wheels/scipy-$(SCIPY_VERSION)-cp311-cp311-macosx_10_14_x86_64.whl
-# The denoiser (issue 23): OpenImageDenoise's libraries in the pyoidn wheel, and its cffi binding (pycparser is pure)
 PYOIDN_VERSION := 2.5.1.0
 CFFI_VERSION := 2.1.1
-PYCPARSER := wheels/pycparser-3.12-py3-none-any.whl
-WHEELS_LINUX_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-manylinux2014_x86_64.whl \
-	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl $(PYCPARSER)
-WHEELS_WINDOWS_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-win_amd64.whl \
-	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-win_amd64.whl
-WHEELS_MACOS_ARM64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_12_0_arm64.whl \
-	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-macosx_11_0_arm64.whl
-WHEELS_MACOS_X64 += wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_10_15_x86_64.whl \
-	wheels/cffi-$(CFFI_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl
-# Compiled kernels (issue 26): numba and its LLVM binding; numba 0.62 is the last with macOS x86-64 wheels
-NUMBA_VERSION := 0.62.1
-LLVMLITE_VERSION := 0.45.1
-WHEELS_LINUX_X64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl \
-	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-manylinux2014_x86_64.manylinux_2_17_x86_64.whl
-WHEELS_WINDOWS_X64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-win_amd64.whl \
-	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-win_amd64.whl
-WHEELS_MACOS_ARM64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-macosx_11_0_arm64.whl \
-	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-macosx_11_0_arm64.whl
-WHEELS_MACOS_X64 += wheels/numba-$(NUMBA_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl \
-	wheels/llvmlite-$(LLVMLITE_VERSION)-cp311-cp311-macosx_10_15_x86_64.whl
-WHEELS := $(WHEELS_LINUX_X64) $(WHEELS_WINDOWS_X64) $(WHEELS_MACOS_ARM64) $(WHEELS_MACOS_X64)
+PYCPARSER_VERSION := 3.12
+NUMBA_VERSION := 0.68.1
+LLVMLITE_VERSION := 0.50.0
+NUMBA_VERSION_MACOS_X64 := 0.62.1
+LLVMLITE_VERSION_MACOS_X64 := 0.45.1
+# $(call wheel,name,version,platform tag): the wheel of every Python of PYTHONS
+wheel = $(foreach py,$(PYTHONS),wheels/$(1)-$(2)-cp$(py)-cp$(py)-$(3).whl)
+WHEELS_LINUX_X64 := $(call wheel,embreex,$(EMBREEX_VERSION),manylinux_2_27_x86_64.manylinux_2_28_x86_64) \
+	$(call wheel,scipy,$(SCIPY_VERSION),manylinux_2_27_x86_64.manylinux_2_28_x86_64) \
+	wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-manylinux2014_x86_64.whl \
+	$(call wheel,cffi,$(CFFI_VERSION),manylinux2014_x86_64.manylinux_2_17_x86_64) \
+	$(call wheel,numba,$(NUMBA_VERSION),manylinux_2_27_x86_64.manylinux_2_28_x86_64) \
+	$(call wheel,llvmlite,$(LLVMLITE_VERSION),manylinux_2_27_x86_64.manylinux_2_28_x86_64)
+WHEELS_WINDOWS_X64 := $(call wheel,embreex,$(EMBREEX_VERSION),win_amd64) $(call wheel,scipy,$(SCIPY_VERSION),win_amd64) \
+	wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-win_amd64.whl $(call wheel,cffi,$(CFFI_VERSION),win_amd64) \
+	$(call wheel,numba,$(NUMBA_VERSION),win_amd64) $(call wheel,llvmlite,$(LLVMLITE_VERSION),win_amd64)
+WHEELS_MACOS_ARM64 := $(call wheel,embreex,$(EMBREEX_VERSION),macosx_13_0_arm64) \
+	$(call wheel,scipy,$(SCIPY_VERSION),macosx_12_0_arm64) wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_12_0_arm64.whl \
+	$(call wheel,cffi,$(CFFI_VERSION),macosx_11_0_arm64) $(call wheel,numba,$(NUMBA_VERSION),macosx_12_0_arm64) \
+	$(call wheel,llvmlite,$(LLVMLITE_VERSION),macosx_12_0_arm64)
+WHEELS_MACOS_X64 := $(call wheel,embreex,$(EMBREEX_VERSION),macosx_13_0_x86_64) \
+	$(call wheel,scipy,$(SCIPY_VERSION),macosx_10_14_x86_64) \
+	wheels/pyoidn-$(PYOIDN_VERSION)-py3-none-macosx_10_15_x86_64.whl \
+	$(call wheel,cffi,$(CFFI_VERSION),macosx_10_15_x86_64) \
+	$(call wheel,numba,$(NUMBA_VERSION_MACOS_X64),macosx_10_15_x86_64) \
+	$(call wheel,llvmlite,$(LLVMLITE_VERSION_MACOS_X64),macosx_10_15_x86_64)
+PYCPARSER := wheels/pycparser-$(PYCPARSER_VERSION)-py3-none-any.whl
+WHEELS := $(WHEELS_LINUX_X64) $(WHEELS_WINDOWS_X64) $(WHEELS_MACOS_ARM64) $(WHEELS_MACOS_X64) $(PYCPARSER)
 DEMO_SCENE := example_blends/cornell_area.blend
 
-.PHONY: venv test test-all demo wheels extension examples scenes bench clean
+.PHONY: venv test test-all test-blender demo wheels print-wheels extension examples scenes bench clean
 
 venv: $(STAMP)
 
@@ -52,23 +56,29 @@ $(STAMP): requirements.txt
 	$(BIN)/python -m pip install --quiet -r requirements.txt
 	touch $@
 
-# The wheels of every platform (fetched, never committed): pip picks, for the given platform tag, the files named above;
-# `ls` fails if it picked others (a new upload), so the manifest's list and these names must then be updated together.
+# The wheels of every platform (fetched, never committed): pip picks, for the given Python and platform tags, the files
+# named above; `ls` fails if it picked others (a new upload), so the names above must then be updated.
 wheels: $(WHEELS)
 
-fetch_wheels = mkdir -p wheels && $(BIN)/python -m pip download --quiet --no-deps --only-binary=:all: \
-	--python-version 3.11 --implementation cp $(foreach tag,$(1),--platform $(tag)) -d wheels \
+print-wheels:
+	@printf '%s\n' $(WHEELS)
+
+# $(call fetch_wheels,platform tags,numba version,llvmlite version,wheel files)
+fetch_wheels = mkdir -p wheels && for py in $(PYTHONS); do $(BIN)/python -m pip download --quiet --no-deps \
+	--only-binary=:all: --python-version $$py --implementation cp $(foreach tag,$(1),--platform $(tag)) -d wheels \
 	embreex==$(EMBREEX_VERSION) scipy==$(SCIPY_VERSION) pyoidn==$(PYOIDN_VERSION) cffi==$(CFFI_VERSION) \
-	pycparser==3.12 numba==$(NUMBA_VERSION) llvmlite==$(LLVMLITE_VERSION) && ls $(2) >/dev/null
+	numba==$(2) llvmlite==$(3) || exit 1; done && ls $(4) >/dev/null
 
 $(WHEELS_LINUX_X64) &: | $(STAMP)
-	$(call fetch_wheels,manylinux_2_28_x86_64 manylinux2014_x86_64,$(WHEELS_LINUX_X64))
+	$(call fetch_wheels,manylinux_2_28_x86_64 manylinux2014_x86_64,$(NUMBA_VERSION),$(LLVMLITE_VERSION),$(WHEELS_LINUX_X64))
 $(WHEELS_WINDOWS_X64) &: | $(STAMP)
-	$(call fetch_wheels,win_amd64,$(WHEELS_WINDOWS_X64))
+	$(call fetch_wheels,win_amd64,$(NUMBA_VERSION),$(LLVMLITE_VERSION),$(WHEELS_WINDOWS_X64))
 $(WHEELS_MACOS_ARM64) &: | $(STAMP)
-	$(call fetch_wheels,macosx_13_0_arm64,$(WHEELS_MACOS_ARM64))
+	$(call fetch_wheels,macosx_13_0_arm64,$(NUMBA_VERSION),$(LLVMLITE_VERSION),$(WHEELS_MACOS_ARM64))
 $(WHEELS_MACOS_X64) &: | $(STAMP)
-	$(call fetch_wheels,macosx_13_0_x86_64,$(WHEELS_MACOS_X64))
+	$(call fetch_wheels,macosx_13_0_x86_64,$(NUMBA_VERSION_MACOS_X64),$(LLVMLITE_VERSION_MACOS_X64),$(WHEELS_MACOS_X64))
+$(PYCPARSER): | $(STAMP)
+	mkdir -p wheels && $(BIN)/python -m pip download --quiet --no-deps -d wheels pycparser==$(PYCPARSER_VERSION)
 
 test: $(STAMP) $(WHEELS)
 	$(BIN)/python -m pytest
@@ -76,6 +86,24 @@ test: $(STAMP) $(WHEELS)
 # Everything, including the slow tests (minutes) that CI leaves to the benchmark runs.
 test-all: $(STAMP) $(WHEELS)
 	$(BIN)/python -m pytest -m "slow or not slow"
+
+# The version matrix: the Linux zip installed into the bpy module of each supported Blender, each in its own venv
+# under BLENDER_VENVS (git-ignored, kept between runs; pip's cache keeps the wheels), rendered and checked against 5.0
+# (tests/blender/test_versions.py). 5.0 is the development venv's; 4.2 and 4.5 get the numpy 1.26 those Blenders ship.
+BLENDER_VENVS ?= .venv-blender
+PYTHON313 ?= $(shell pyenv root 2>/dev/null)/versions/3.13.0/bin/python3.13
+BLENDER_MATRIX := 4.2=$(BLENDER_VENVS)/4.2/bin/python 4.5=$(BLENDER_VENVS)/4.5/bin/python 5.0=$(BIN)/python \
+	5.2=$(BLENDER_VENVS)/5.2/bin/python
+$(BLENDER_VENVS)/4.2/.installed:
+	$(PYTHON) -m venv $(@D) && $(@D)/bin/python -m pip install --quiet bpy==4.2.23 "numpy<2" && touch $@
+$(BLENDER_VENVS)/4.5/.installed:
+	$(PYTHON) -m venv $(@D) && $(@D)/bin/python -m pip install --quiet bpy==4.5.15 "numpy<2" && touch $@
+$(BLENDER_VENVS)/5.2/.installed:
+	$(PYTHON313) -m venv $(@D) && $(@D)/bin/python -m pip install --quiet bpy==5.2.3 && touch $@
+
+test-blender: extension $(foreach v,4.2 4.5 5.2,$(BLENDER_VENVS)/$(v)/.installed)
+	VPL_GI_BLENDERS="$(BLENDER_MATRIX)" $(BIN)/python -m pytest -m versions -n 0 -s -p no:cacheprovider \
+		tests/blender/test_versions.py
 
 demo: $(STAMP)
 	mkdir -p out

@@ -12,6 +12,7 @@ Subpackages by kind, each importing only its own or a lower layer (checked by ``
     render.py   one frame: extraction's ``Scene`` in, passes out                         everything above
     lightmap    lightmaps of objects' UV maps from one VPL set (Cycles' bake types)     render and all above
     progressive.py  the viewport's progressive render on a background thread             render and all above
+    precompile.py   the kernels compiled before the first render, on a background thread  render and all above
     evaluation  metrics, comparison with Cycles, temporal error, convergence            core (and itself)
 
 Blender's side (``operators/``) builds a ``core.scene.Scene`` and calls ``render.render`` (or, for the 3D view,

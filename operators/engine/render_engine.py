@@ -18,6 +18,7 @@ from ...vpl_addon.core import cryptomatte
 from ...vpl_addon.core import passes as P
 from ...vpl_addon.core.memory import trim_heap
 from ...vpl_addon.core.passes import BadOutput
+from ...vpl_addon.precompile import KERNELS
 from ...vpl_addon.render import Cancelled, render
 from ..scene.extract import ExtractionError, depth_of_field, extract
 from .frame_state import FRAME_LOG, active_sequence
@@ -79,8 +80,9 @@ def unwritten_passes(view_layer) -> list[str]:
         {"use_pass_combined", "use_pass_cryptomatte_accurate", DENOISING_TOGGLE}  # Combined always; Accurate is no pass
     toggles = [(view_layer, prop) for prop in view_layer.bl_rna.properties if prop.identifier.startswith("use_pass_")]
     cycles = getattr(view_layer, "cycles", None)  # None when Cycles is disabled
-    if cycles is not None:
-        toggles += [(cycles, prop) for prop in cycles.bl_rna.properties if prop.identifier != "use_denoising"]
+    if cycles is not None:  # its passes; its other booleans (5.2's denoising_pass_follow_reflections) are settings
+        toggles += [(cycles, prop) for prop in cycles.bl_rna.properties
+                    if prop.identifier.startswith(("use_pass_", "pass_"))]
     names = [prop.name for settings, prop in toggles if prop.type == "BOOLEAN" and prop.identifier not in ours
              and getattr(settings, prop.identifier)]
     names += [f"AOV {aov.name!r}" for aov in getattr(view_layer, "aovs", ())]
@@ -168,18 +170,33 @@ class VPLGIRenderEngine(bpy.types.RenderEngine):
                                     f"{', '.join(unwritten)}")
         settings = scene.vpl_gi.render_settings(passes)
         sequence, settings.placement_seed = active_sequence(scene, settings, self.is_animation)  # bake, blender -a
+        t_wait = time.perf_counter()
+        if not self._kernels_ready(settings.method):
+            return
+        t_wait = time.perf_counter() - t_wait
         bands = []
-        result = self._rendered(built, settings, sequence, view_layer.name, bands)
+        with KERNELS.rendering():
+            result = self._rendered(built, settings, sequence, view_layer.name, bands)
         if result is None:
             return
         if sequence is not None:
             FRAME_LOG.append({"frame": scene.frame_current, "light_paths": result.info.get("light_paths"),
                               "reused": bool(result.info.get("reused")), "bvh_builds": sequence.bvh_builds,
                               "animated": sequence.animated})
-        LAST_STATS.update(seconds={"extract": t_extract, **result.seconds}, rays=result.rays, threads=result.threads,
-                          width=built.camera.width, height=built.camera.height, samples=settings.samples,
-                          method=settings.method, info=result.info, bands_shown=len(bands))
+        LAST_STATS.update(seconds={"extract": t_extract, "kernels": t_wait, **result.seconds}, rays=result.rays,
+                          threads=result.threads, width=built.camera.width, height=built.camera.height,
+                          samples=settings.samples, method=settings.method, info=result.info, bands_shown=len(bands))
         self._write(view_layer.name, result.passes, _cryptomatte_metadata(view_layer.name, passes, built))
+
+    def _kernels_ready(self, method: str) -> bool:
+        """Wait, saying so, while the background thread compiles ``method``'s kernels (the first render after an
+        install); False after ESC."""
+        while not KERNELS.wait(method, timeout=0.25):
+            self.update_stats("VPL GI", f"Waiting: {KERNELS.status()}")
+            if self.test_break():
+                self._report("INFO", "render cancelled")
+                return False
+        return True
 
     def _extracted(self, depsgraph):
         """The engine's scene of ``depsgraph`` (its warnings reported), or None after reporting why not."""

@@ -15,7 +15,7 @@ import numpy as np
 from ...vpl_addon.core.camera import Camera, view_window
 from ...vpl_addon.core.scene import Environment, Scene
 from ...vpl_addon.lights import AreaLight, PointLight, SpotLight, SunLight
-from .shader_nodes import MaterialTable, image_pixels
+from .shader_nodes import MaterialTable, image_pixels, output_shader
 from .unsupported import Unsupported
 from .world_bake import BakeError, baked_world
 
@@ -163,6 +163,20 @@ def _without(arrays, material_ids: list[int]):
     return tuple(None if a is None else a[keep] for a in arrays) if keep.any() else None
 
 
+def light_nodes_used(data) -> bool:
+    """Whether a light's shader nodes change its light: switched on and other than the tree Blender makes for a new
+    light (a white Emission of Strength 1 into the Light Output), which every light of Blender 5.2 has, with
+    ``use_nodes`` reading True."""
+    if not getattr(data, "use_nodes", False) or getattr(data, "node_tree", None) is None:
+        return False
+    shader = output_shader(data)
+    if shader is None or shader.type != "EMISSION":
+        return True
+    color, strength = shader.inputs["Color"], shader.inputs["Strength"]
+    return color.is_linked or strength.is_linked or tuple(color.default_value[:3]) != (1.0, 1.0, 1.0) \
+        or strength.default_value != 1.0
+
+
 def _light(obj, matrix, warnings):
     data = obj.data
     m = _matrix(matrix)
@@ -171,7 +185,7 @@ def _light(obj, matrix, warnings):
     name = obj.name
     if getattr(data, "use_temperature", False):
         warnings.append(f"light {name!r}: colour temperature is not supported; using its colour alone")
-    if getattr(data, "use_nodes", False):
+    if light_nodes_used(data):
         warnings.append(f"light {name!r}: light nodes are not supported; using colour and power alone")
     power = np.array(data.color[:3], np.float64) * data.energy * 2.0 ** getattr(data, "exposure", 0.0)
     normalize = getattr(data, "normalize", True)  # off: power is radiance-like, not divided by the light's size

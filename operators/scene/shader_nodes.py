@@ -79,12 +79,12 @@ def image_pixels(image, alpha: bool = False, encoded: bool = False) -> np.ndarra
 
 
 def output_shader(owner, socket: str = "Surface"):
-    """The shader node feeding ``socket`` (Surface or Volume) of the active output of a material's or a world's node
-    tree, or None without nodes or without a shader there."""
+    """The shader node feeding ``socket`` (Surface or Volume) of the active output of a material's, a world's or a
+    light's node tree, or None without nodes or without a shader there."""
     tree = owner.node_tree
     if tree is None:
         return None
-    outputs = [n for n in tree.nodes if n.type in ("OUTPUT_MATERIAL", "OUTPUT_WORLD")]
+    outputs = [n for n in tree.nodes if n.type in ("OUTPUT_MATERIAL", "OUTPUT_WORLD", "OUTPUT_LIGHT")]
     active = [n for n in outputs if n.is_active_output] or outputs
     if not active:
         return None

@@ -5,6 +5,7 @@ from __future__ import annotations
 import bpy
 
 from ...vpl_addon.methods import METHODS, NONE, PATH_REUSE
+from ...vpl_addon.precompile import KERNELS
 from ..engine.render_engine import CRYPTOMATTE_TOGGLES, DENOISING_TOGGLE, VPLGIRenderEngine
 
 # Blender's own panels of the Light, Material and World tabs that show for this engine too: EEVEE's, whose polls read
@@ -52,6 +53,8 @@ class RENDER_PT_vpl_gi(_VPLGIPanel, bpy.types.Panel):
         layout = self.layout
         layout.use_property_split = True
         settings = context.scene.vpl_gi
+        if not KERNELS.ready:
+            layout.label(text=KERNELS.status(), icon="TIME")
         col = layout.column()
         col.prop(settings, "samples")
         col.prop(settings, "light_samples")

@@ -25,8 +25,11 @@ PLATFORM_WHEEL_TAGS = {
     "macos-arm64": r"macosx_\d+_\d+_arm64",
     "macos-x64": r"macosx_\d+_\d+_x86_64",
 }
-# pycparser is pure Python: "any" platform
-BUNDLED = ["cffi", "embreex", "llvmlite", "numba", "pycparser", "pyoidn", "scipy"]
+# the compiled wheels come once per Python the supported Blenders bundle; pyoidn (its own libraries, loaded by cffi)
+# and pycparser (pure Python, "any" platform) once
+COMPILED = ["cffi", "embreex", "llvmlite", "numba", "scipy"]
+PYTHON_TAGS = ["cp311", "cp313"]
+BUNDLED = sorted([(name, tag) for name in COMPILED for tag in PYTHON_TAGS] + [("pycparser", "py3"), ("pyoidn", "py3")])
 
 INSTALL_AND_RENDER = textwrap.dedent("""
     import sys, bpy
@@ -64,6 +67,14 @@ def run(*args, env=None):
     return proc.stdout
 
 
+def test_the_manifest_bundles_the_wheels_the_makefile_pins():
+    """``make wheels`` fetches what the Makefile pins; the manifest must name exactly those files."""
+    manifest = tomllib.loads((ROOT / "blender_manifest.toml").read_text())
+    pinned = subprocess.run(["make", "-s", "--no-print-directory", "print-wheels"], cwd=ROOT, capture_output=True,
+                            text=True, check=True).stdout.split()
+    assert [w.removeprefix("./") for w in manifest["wheels"]] == pinned
+
+
 def test_extension_builds_validates_installs_and_renders(tmp_path):
     from vpl_addon.core.exr import read_passes
     tool = blender_ext_tool()
@@ -84,7 +95,7 @@ def test_extension_builds_validates_installs_and_renders(tmp_path):
             generated = tomllib.loads(archive.read("blender_manifest.toml").decode())["build"]["generated"]
         assert not [n for n in names if n == ".git" or n.startswith((".git/", "tests/"))], "the checkout leaked in"
         wheels = sorted(pathlib.PurePosixPath(n).name for n in names if n.endswith(".whl"))
-        assert [w.split("-")[0] for w in wheels] == BUNDLED, (platform, wheels)
+        assert sorted((w.split("-")[0], w.split("-")[2]) for w in wheels) == BUNDLED, (platform, wheels)
         for wheel in wheels:
             tags = wheel.removesuffix(".whl").split("-")[-1].split(".")
             assert all(re.fullmatch(PLATFORM_WHEEL_TAGS[platform] + "|any", t) for t in tags), (platform, wheel)

@@ -233,3 +233,19 @@ def test_a_fog_box_hides_nothing_behind_it(ext, tmp_path):
     without, no_reports = _render(bpy, tmp_path)
     assert len(reports) == 1 and reports[0][1].startswith("volume: ") and "'FogBox'" in reports[0][1]
     assert no_reports == [] and with_fog[..., :3].max() > 0 and np.array_equal(with_fog, without)
+
+
+def test_a_lights_default_node_tree_gives_no_warning_and_a_changed_one_does(bpy):
+    """Blender 5.2 gives every light the default tree (a white Emission of Strength 1) and ``use_nodes`` True."""
+    camera_and_black_world(bpy, bpy.context.scene, (0, 0, 5))
+    _cube(bpy, "Floor")
+    lamp = _lamp(bpy, "Lamp", "POINT")
+    lamp.location = (0, 0, 3)
+    lamp.data.use_nodes = True
+    assert lamp.data.node_tree is not None
+    _, warnings = extracted(bpy)
+    assert not warnings, warnings
+    emission = next(n for n in lamp.data.node_tree.nodes if n.type == "EMISSION")
+    emission.inputs["Strength"].default_value = 2.0
+    _, warnings = extracted(bpy)
+    assert warnings == ["light 'Lamp': light nodes are not supported; using colour and power alone"], warnings

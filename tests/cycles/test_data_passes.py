@@ -184,7 +184,8 @@ def test_every_pass_switched_on_is_written_or_named_in_one_warning(ext, tmp_path
     scene.vpl_gi.method, scene.vpl_gi.samples, scene.vpl_gi.light_samples = "none", 1, 1
     layer = scene.view_layers[0]
     toggles = [(layer, p) for p in layer.bl_rna.properties if p.identifier.startswith("use_pass_")]
-    toggles += [(layer.cycles, p) for p in layer.cycles.bl_rna.properties if p.identifier != "use_denoising"]
+    toggles += [(layer.cycles, p) for p in layer.cycles.bl_rna.properties  # its passes, not its settings
+                if p.identifier.startswith(("use_pass_", "pass_")) or p.identifier == "denoising_store_passes"]
     toggles = [(owner, p) for owner, p in toggles if p.type == "BOOLEAN" and not p.is_readonly]
     for owner, prop in toggles:
         setattr(owner, prop.identifier, True)

@@ -14,7 +14,7 @@ from conftest import ROOT
 
 # The engine's layers, lowest first: each may import its own and the lower ones (see vpl_addon/__init__.py).
 LAYERS = ("core", "materials", "lights", "gather", "paths", "sequence", "methods", "render", "lightmap",
-          "progressive")
+          "progressive", "precompile")
 ALLOWED = {layer: set(LAYERS[:i + 1]) for i, layer in enumerate(LAYERS)}
 ALLOWED["evaluation"] = {"core", "evaluation"}  # judges outputs; nothing of the engine imports it
 ALLOWED["__main__"] = set()  # the bootstrap reaches operators.cli.commands by name, not by import

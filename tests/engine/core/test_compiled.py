@@ -1,8 +1,10 @@
 """The compiled kernels (``core.compiled``): machine code cached in the user's cache folder, so a second process
-loads it instead of compiling, whatever name the engine was imported under."""
+loads it instead of compiling, whatever name the engine was imported under; and compiled ahead of the first render
+on a thread that stops when told (``precompile``)."""
 import os
 import subprocess
 import sys
+import threading
 
 from conftest import ROOT
 
@@ -111,3 +113,21 @@ def test_tables_are_kept_on_disk_bit_for_bit_and_made_again_when_the_code_or_the
     for disk, integrated in zip(M._metal_tables(), M._integrated_metal_tables()):
         assert disk.tobytes() == integrated.tobytes()
     assert any(p.name.startswith("metal-") for p in (tmp_path / "cache" / "tables").iterdir())
+
+
+def test_precompile_readies_every_method_on_its_thread_and_a_stop_joins_it():
+    from vpl_addon.methods import METHODS
+    from vpl_addon.precompile import Precompile
+    kernels = Precompile()
+    kernels.start()
+    assert "vpl_gi kernels" in [t.name for t in threading.enumerate()]
+    assert kernels.status().startswith("Compiling kernels")
+    kernels.stop()
+    assert "vpl_gi kernels" not in [t.name for t in threading.enumerate()] and not kernels.ready
+    kernels.start()
+    for name in METHODS:
+        assert kernels.wait(name, timeout=900), name
+    assert kernels.ready and kernels.error is None and kernels.status().startswith("Kernels ready"), kernels.status()
+    assert kernels.wait("none", timeout=0)  # no method: nothing to wait for
+    kernels.stop()
+    assert "vpl_gi kernels" not in [t.name for t in threading.enumerate()]
