@@ -62,11 +62,11 @@ class Layout:
     def __init__(self, drawn):
         self.drawn, self.use_property_split, self.active = drawn, False, True
 
-    def column(self, **_):
-        return self
-
     def prop(self, data, name, **_):
         self.drawn.append(name)
+
+    def __getattr__(self, name):  # column, row, label, operator...: what a draw lays out besides the settings
+        return lambda *args, **kwargs: self
 
 
 scene = bpy.context.scene
