@@ -14,7 +14,6 @@ import bpy
 import numpy as np
 
 from ...vpl_addon.core.camera import Camera, view_window
-from ...vpl_addon.core.exr import write_passes
 from ...vpl_addon.lightmap import Cancelled, LightmapSettings, bake
 from ...vpl_addon.methods import MethodSettings
 from ..scene.extract import ACTIVE_UV, ExtractionError, camera_of, extract
@@ -69,6 +68,11 @@ def file_path(folder: str, name: str) -> str:
 
 def write_files(folder: str, result, bake_pass: str) -> list[str]:
     """Each map of ``result`` (``LightmapResult``) as ``folder/<object>.exr`` (made atomically); their paths."""
+    try:  # OpenEXR is the command line's (requirements.txt), not a bundled wheel: the add-on registers without it
+        from ...vpl_addon.core.exr import write_passes
+    except ImportError as err:
+        raise LightmapError(f"writing image files needs the OpenEXR package ({err}); bake into the active Image "
+                            f"Texture node's image instead") from None
     os.makedirs(folder, exist_ok=True)
     paths = []
     for name, image in result.images.items():
