@@ -202,7 +202,7 @@ class VPLGI_OT_bake_lightmaps(bpy.types.Operator):
             return {"CANCELLED"}
         try:
             self._store(context, self._outcome["result"], self._targets)
-        except OSError as err:
+        except (LightmapError, OSError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
         return {"FINISHED"}
