@@ -1,7 +1,7 @@
 """``python -m vpl_addon``: the command line.
 
-The engine imports no bpy; the commands live with the Blender side in ``operators/cli/commands.py``. This bootstrap loads
-the extension's root folder as the package ``vpl_gi`` (the way Blender loads it as ``bl_ext.<repo>.vpl_gi``), so
+The engine imports no bpy; the commands live with the Blender side in ``operators/cli/commands.py``. This bootstrap
+loads the extension's root folder as the package ``vpl_gi`` (the way Blender loads it as ``bl_ext.<repo>.vpl_gi``), so
 that the relative imports between ``operators/`` and ``vpl_addon/`` work the same from a checkout.
 """
 from __future__ import annotations
@@ -27,8 +27,8 @@ def extension_package():
 
 
 def call(name: str, *args):
-    """``<name>(*args)``, a function of the extension (``operators.cli.farm.render_chunk``), in this process after loading
-    the extension: the entry a Dask worker runs. A task names this function, which any Python that has the
+    """``<name>(*args)``, a function of the extension (``operators.cli.farm.render_chunk``), in this process after
+    loading the extension: the entry a Dask worker runs. A task names this function, which any Python that has the
     extension on its path can import; the extension's own modules load only once it runs."""
     module, _, function = name.rpartition(".")
     extension_package()

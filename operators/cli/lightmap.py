@@ -28,7 +28,8 @@ def add_parser(sub) -> None:
     lm.add_argument("--pass", dest="bake_pass", default=BAKE_PASSES[0],
                     help=f"what to bake, as Cycles' bake types: {', '.join(BAKE_PASSES)} (default {BAKE_PASSES[0]})")
     lm.add_argument("--samples", type=int, default=4, help="sample points per texel (default 4)")
-    lm.add_argument("--vpls", type=int, help="virtual lights for all the objects (default 16384; each texel gathers 256 of them)")
+    lm.add_argument("--vpls", type=int,
+                    help="virtual lights for all the objects (default 16384; each texel gathers 256 of them)")
     lm.add_argument("--method", default="ir", choices=[n for n, m in METHODS.items() if m.sums_lights],
                     help="how the virtual lights are placed (default ir)")
     lm.add_argument("--margin", type=int, default=16, help="texels each island grows by (default 16, at least 2)")

@@ -183,8 +183,8 @@ def test_no_modules_import_each_other_in_a_circle():
 
 
 def test_the_check_catches_a_circle_through_a_function_level_import(tmp_path):
-    """The check above, run on a copy of the repository where the farm imports the command line inside a function
-    (as it once did, for the command line's private helpers), reports the two modules."""
+    """The check above, run on a copy of the repository where the farm imports the command line's module inside a
+    function, reports the two modules."""
     import shutil
     copy = tmp_path / "repo"
     for folder in FOLDERS:

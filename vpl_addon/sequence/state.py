@@ -16,7 +16,8 @@ Moreau et al. keep theirs; every method at least keeps what a static frame can r
   so a chunk of frames can begin on another machine) and ``advance(state, context, settings, motion) -> (lights,
   info)``. For the others the rule is the static one: when nothing they depend on changed (geometry, lights,
   shading, and the camera for the view-dependent ones), the previous frame's lights are reused and no light path is
-  traced; the placement generator is put back where it was after they were placed, so the frame renders exactly as that one.
+  traced; the placement generator is put back where it was after they were placed, so the frame renders exactly as
+  that one.
 
 The state saves as data (``dumps``: arrays and JSON, ``persisted``; its tracers are built again), so a bake saves
 it after every frame and an interrupted bake resumes from the last finished frame with exactly the state an

@@ -65,7 +65,8 @@ class SMCSettings:
     # draws of candidates that the warm-up's iterations share (not in the paper; 16 flicker as little as the paper's
     # 100 on the example sequences, at a sixth of its cold start: ``bench/sequence_temporal.py``)
     warmup_rounds: int = option(16, label="Warm-up Draws", min=1, soft_max=100,
-                                description="Draws of candidates the warm-up iterations share. 16 starts in about 4 s on a Cornell box and flickers as little "
+                                description="Draws of candidates the warm-up iterations share. 16 starts in "
+                                            "about 4 s on a Cornell box and flickers as little "
                                             "as the paper's warm-up (as many draws as iterations), which takes about "
                                             "6 times as long; 4 starts in 1.5 s and flickers 5-8 % more, but its "
                                             "single frames are closer to Cycles")

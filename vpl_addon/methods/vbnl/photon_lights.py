@@ -16,7 +16,8 @@ corner: the first-order boundary bias of kernel estimates, which a local linear 
 boundary correction for kernel density estimation"; Fan and Gijbels 1996, ch. 3). The correction integrates to
 zero over the light's share, so each light keeps its power (about the share's centre as the catchment measures it,
 whose error is independent of the slopes: the correction adds nothing on average). On a floor lit as a ramp beside a
-thin wall (``tests/engine/methods/test_vbnl.py``) the means alone put the wall's foot 6 % too bright, the slopes 2 % too dark.
+thin wall (``tests/engine/methods/test_vbnl.py``) the means alone put the wall's foot 6 % too bright, the slopes 2 %
+too dark.
 
 Deviation from eq. 3: the paper sums I_j / (pi r_j^2) over the covering lights with
 the indicator of the sphere; the number of covering lights at a point varies by about +-50 % around its mean of
