@@ -38,7 +38,7 @@ from .core.denoise import DenoiseCancelled, DenoiserMissing, check as check_deno
 from .core.memory import trim_heap
 from .core.sampling import group_sum, pixel_nets
 from .core.tracer import Tracer
-from .gather.bilateral import deinterleave
+from .gather.bilateral import bright_apart, deinterleave
 from .gather.summing import GatherSettings, clamp_distance, gather
 from .lights import LightSet
 from .lights.direct import direct_light
@@ -181,7 +181,7 @@ class _Plan:
     need_indirect: bool  # narrowed by ``_place`` to whether anything is left to gather
     need_glossy: bool
     need_background: bool
-    filtering: bool  # the gather's filter runs (``_filter``)
+    filtering: bool  # the gather's filter runs on the light the points' own gathering finds (``_filter``)
     bounces: int
     cam: object  # the camera of the pixels rendered: a border's, plus the filter's reach around it
     w: int
@@ -213,6 +213,8 @@ class _Frame:
     take 8 bytes a channel less."""
     images: dict[str, np.ndarray]  # pass -> (W*H, channels)
     indirect: np.ndarray  # Diffuse Indirect: the pixel's albedo-weighted mean of the gathered light
+    # its part that the points' own gathering finds (the filter's input, ``_filter``); None without the filter
+    near: np.ndarray | None
     # the light of shadow rays through glass: Cycles' Diffuse Indirect (a transmission bounce), by pixel; None
     # without glass, direct light or bounces
     glazed: np.ndarray | None
@@ -220,9 +222,8 @@ class _Frame:
     shine: np.ndarray
     shine_color: np.ndarray
     glossy_color: np.ndarray
-    # the filter's guides for each lobe (0 diffuse, 1 metallic): the summed position and normal of the pixel's
-    # gathering samples of that lobe, and their number (float32: a guide needs no more, and 1920 x 1080 holds
-    # 0.24 GB less); None without the filter
+    # the filter's guides: the summed position and normal of the pixel's diffuse gathering samples, and their
+    # number (float32: a guide needs no more, and 1920 x 1080 holds 0.12 GB less); None without the filter
     guide_position: np.ndarray | None
     guide_normal: np.ndarray | None
     guide_count: np.ndarray | None
@@ -230,7 +231,7 @@ class _Frame:
     def drop_gathering(self) -> None:
         """The gathering's arrays let go (a pass keeps the one it holds), so that the denoiser's scratch memory
         finds their room."""
-        self.indirect = self.shine = self.shine_color = self.glossy_color = None
+        self.indirect = self.near = self.shine = self.shine_color = self.glossy_color = None
         self.guide_position = self.guide_normal = self.guide_count = None
 
 
@@ -309,9 +310,10 @@ def _plan(scene, settings: RenderSettings, lights: LightSet) -> _Plan:
     need_background = lights.world is not None and (P.ENVIRONMENT in want or not settings.film_transparent)
     need_indirect = bool({P.DIFFUSE_INDIRECT, P.COMBINED} & want) and len(lights) > 0 and \
         settings.method != NONE and bounces > 0 and len(scene.triangles) > 0
-    # the gather's filter evens out the interleaving for a picture left as rendered; before OIDN it costs more than
-    # it removes (it blends the light of nearby surfaces, which OIDN's guides keep apart): without it the denoised
-    # Combined is 13 to 37 % closer to the references with vbnl, 2 to 9 % with the others
+    # the gather's filter evens out the interleaving (and a sampled gather's noise) for a picture left as rendered;
+    # before OIDN it costs more than it removes (it blends the light of nearby surfaces, which OIDN's guides keep
+    # apart): without it the denoised Combined is 13 to 37 % closer to the references with vbnl, 2 to 9 % with the
+    # others
     filtering = need_indirect and settings.gather.filter and settings.gather.interleave > 1 and \
         not (settings.denoise and denoiser_available())
     # a render border: its pixels only, and the filter's reach around it, so that it filters them as in the frame
@@ -362,19 +364,19 @@ def _place(scene, settings: RenderSettings, plan: _Plan, tracer, lights: LightSe
 
 def _frame(scene, plan: _Plan) -> _Frame:
     """The frame's arrays (``_Frame``) at zero: a pass each of ``plan.want`` and Diffuse Color, and the
-    gathering's light, colour and guides (the light through glass only for glass lit directly, the guides only
-    for the filter)."""
+    gathering's light, colour and guides (the light through glass only for glass lit directly, the filter's input
+    and guides only for the filter)."""
     pixels = plan.w * plan.h
     images = {name: np.zeros((pixels, P.CHANNELS[name]), np.float32) for name in plan.want | {P.DIFFUSE_COLOR}}
     indirect = np.zeros((pixels, 3), np.float32)
     glazed = np.zeros((pixels, 3), np.float32) \
         if plan.need_direct and plan.bounces > 0 and scene.materials.glass.any() else None
     shine, shine_color, glossy_color = (np.zeros((pixels, 3), np.float32) for _ in range(3))
-    guide_position, guide_normal = (np.zeros((2, pixels, 3), np.float32) if plan.filtering else None
-                                    for _ in range(2))
-    guide_count = np.zeros((2, pixels), np.float32) if plan.filtering else None
-    return _Frame(images, indirect, glazed, shine, shine_color, glossy_color, guide_position, guide_normal,
-                  guide_count)
+    near, guide_position, guide_normal = (np.zeros((pixels, 3), np.float32) if plan.filtering else None
+                                          for _ in range(3))
+    guide_count = np.zeros(pixels, np.float32) if plan.filtering else None
+    return _Frame(images, indirect, near, glazed, shine, shine_color, glossy_color, guide_position,
+                  guide_normal, guide_count)
 
 
 def _shade(job: _Job, progress, shown) -> dict[str, float]:
@@ -460,66 +462,72 @@ def _indirect(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.
               pixels: np.ndarray) -> None:
     """The block's indirect light into the frame: the gathering samples of each lobe (a pixel's first diffuse
     ones; ``glossy_samples`` of its glossy ones) gathered (``_gather_light``) and checked at "gather"; Diffuse
-    Indirect as Cycles' pass, the pixel's albedo-weighted mean light; the glossy light and its colour summed by
-    pixel; the filter's guides."""
+    Indirect as Cycles' pass, the pixel's albedo-weighted mean light, the part the filter takes apart when it
+    filters; the glossy light and its colour summed by pixel; the filter's guides."""
     frame, plan, surf, count = job.frame, job.plan, gbuf.surface, len(pixels)
     # the gathering samples of each lobe; the diffuse passes see only diffuse surfaces
     rows = gbuf.first(largest(surf.albedo) > 0.0, plan.gather_spp)
-    light = _gather_light(job, gbuf, rng, rows)
-    _guard(job.settings, "gather", {P.DIFFUSE_INDIRECT: light})
-    lobes = [rows]
+    near, further = _gather_light(job, gbuf, rng, rows)
+    _guard(job.settings, "gather", {P.DIFFUSE_INDIRECT: near, P.DIFFUSE_INDIRECT + " (continued paths)": further})
     if lobe is not None:
         shiny = gbuf.first(surf.glossy, glossy_samples(gbuf, surf, lobe, plan.gather_spp))
-        reflected = _gather_light(job, gbuf, rng, shiny, lobe)
+        reflected = sum(_gather_light(job, gbuf, rng, shiny, lobe))
         _guard(job.settings, "gather", {P.GLOSSY_INDIRECT: reflected})
         at = gbuf.sample[shiny] // gbuf.spp
         frame.shine[pixels] = group_sum(at, gbuf.tinted(reflected, shiny), count)
         frame.shine_color[pixels] = group_sum(at, gbuf.tinted(lobe.color[shiny], shiny), count)
-        lobes.append(shiny)
     at = gbuf.sample[rows] // gbuf.spp  # Cycles' pass: the pixel's albedo-weighted mean light
     albedo = gbuf.tinted(surf.albedo[rows], rows)
-    frame.indirect[pixels] = P.divide(group_sum(at, albedo * light, count), group_sum(at, albedo, count))
+    weight = group_sum(at, albedo, count)
     if plan.filtering:
-        _guide(frame, gbuf, pixels, lobes)
+        frame.near[pixels] = P.divide(group_sum(at, albedo * near, count), weight)
+        _guide(frame, gbuf, pixels, rows)
+    else:
+        further = further + near
+    frame.indirect[pixels] = P.divide(group_sum(at, albedo * further, count), weight)
 
 
 def _gather_light(job: _Job, gbuf: GBuffer, rng: np.random.Generator, rows: np.ndarray,
-                  lobe: GlossyLobe | None = None) -> np.ndarray:
+                  lobe: GlossyLobe | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(R,3) the indirect light at the G-buffer's hits ``rows``, reflected by a white Lambertian surface or, given
-    the block's ``lobe``, by its metallic lobe there: the VPLs summed (``_summed``) or, for a method that samples
-    its own lights, the mean of its gather's ``repeats`` sample pairs at each hit."""
+    the block's ``lobe``, by its metallic lobe there, in two parts (the method contract's): what the hits' own
+    gathering finds and what the paths continued past them bring. The VPLs summed (``_summed``) or, for a method
+    that samples its own lights, the mean of its gather's ``repeats`` sample pairs at each hit."""
     surf, plan, placed = gbuf.surface, job.plan, job.placed
     if plan.sampled is None:
         glossy = None if lobe is None else lobe.take(rows)
         return _summed(job, surf.take(rows), glossy, gbuf.pixel_of_hit[rows], rng)
     many = np.repeat(rows, plan.repeats)
-    light = plan.sampled(surf.take(many), placed.vpls, placed.context, plan.placement, rng,
+    parts = plan.sampled(surf.take(many), placed.vpls, placed.context, plan.placement, rng,
                          glossy=None if lobe is None else lobe.take(many), pixel=gbuf.sample[many] // gbuf.spp)
-    return light.reshape(len(rows), plan.repeats, 3).mean(axis=1)
+    near, further = (part.reshape(len(rows), plan.repeats, 3).mean(axis=1) for part in parts)
+    return near, further
 
 
-def _summed(job: _Job, points, glossy: GlossyLobe | None, pixel: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+def _summed(job: _Job, points, glossy: GlossyLobe | None, pixel: np.ndarray,
+            rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
     """The VPLs' light at camera points (white Lambertian, or the metallic lobe ``glossy``): the interleaved gather,
-    each point with its pixel's VPL subset, plus the light that comes over metal (``paths.over_metal``); a metallic
-    lobe sees VPLs only over its paths."""
-    placed, width = job.placed, job.plan.cam.width
-    xy = np.stack([pixel % width, pixel // width], 1)  # the frame's tiles, border or not
+    each point with its pixel's VPL subset, and the light that comes over metal (``paths.over_metal``); a metallic
+    lobe sees VPLs only over its paths. The ends of paths over metal draw a random subset each: their light is the
+    path's noise, with no tile pattern to filter."""
+    placed, width, settings = job.placed, job.plan.cam.width, job.settings.gather
 
-    def vpl_light(ends, owner):
-        return gather(ends, xy[owner], placed.vpls, job.tracer, job.settings.gather, placed.d_min, placed.permutation)
-    light = over_metal(points, glossy, job.scene, job.tracer, job.lights, rng, vpl_light, job.plan.bounces)
-    return light if glossy is not None else light + vpl_light(points, np.arange(len(points)))
+    def vpl_light(ends, xy=None):
+        xy = rng.integers(0, max(1, settings.interleave), (len(ends), 2)) if xy is None else xy
+        return gather(ends, xy, placed.vpls, job.tracer, settings, placed.d_min, placed.permutation)
+    further = over_metal(points, glossy, job.scene, job.tracer, job.lights, rng, vpl_light, job.plan.bounces)
+    if glossy is not None:
+        return np.zeros_like(further), further
+    return vpl_light(points, np.stack([pixel % width, pixel // width], 1)), further  # the frame's tiles
 
 
-def _guide(frame: _Frame, gbuf: GBuffer, pixels: np.ndarray, lobes: list[np.ndarray]) -> None:
-    """The filter's guides of the block's pixels for each lobe (0 diffuse, 1 metallic) from the lobe's gathering
-    samples ``lobes[kind]``: their summed position and normal, and their number."""
-    surf = gbuf.surface
-    for kind, guides in enumerate(lobes):
-        local = gbuf.sample[guides] // gbuf.spp
-        frame.guide_position[kind, pixels] = group_sum(local, surf.position[guides], len(pixels))
-        frame.guide_normal[kind, pixels] = group_sum(local, surf.shading_normal[guides], len(pixels))
-        frame.guide_count[kind, pixels] = np.bincount(local, minlength=len(pixels))
+def _guide(frame: _Frame, gbuf: GBuffer, pixels: np.ndarray, rows: np.ndarray) -> None:
+    """The filter's guides of the block's pixels from their diffuse gathering samples ``rows``: their summed
+    position and normal, and their number."""
+    surf, local = gbuf.surface, gbuf.sample[rows] // gbuf.spp
+    frame.guide_position[pixels] = group_sum(local, surf.position[rows], len(pixels))
+    frame.guide_normal[pixels] = group_sum(local, surf.shading_normal[rows], len(pixels))
+    frame.guide_count[pixels] = np.bincount(local, minlength=len(pixels))
 
 
 def _accumulate(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.Generator, pixels: np.ndarray,
@@ -567,18 +575,17 @@ def _accumulate(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.rando
 
 
 def _filter(job: _Job, timing: dict[str, float]) -> np.ndarray | None:
-    """The gathered light added to Combined: Glossy Indirect the shine over its colour, each lobe's light filtered
-    when the plan filters (``_smooth``, checked at "filter"), the seconds in ``timing`` as "filter". Returns the
-    indirect light in Combined (W*H,3) when the denoiser takes it apart (``denoise_combined``), else None."""
+    """The gathered light added to Combined: Glossy Indirect the shine over its colour, the near part of Diffuse
+    Indirect filtered into it when the plan filters (``_smooth``, checked at "filter"), the seconds in
+    ``timing`` as "filter". Returns the indirect light in Combined (W*H,3) when the denoiser takes it apart
+    (``denoise_combined``), else None."""
     settings, plan, frame = job.settings, job.plan, job.frame
     t0 = time.perf_counter()
     reflected = P.divide(frame.shine, frame.shine_color)  # Glossy Indirect
-    if plan.filtering:
-        frame.indirect = _smooth(job, frame.indirect, 0)
+    if plan.filtering:  # the further light's bright excess stays as sampled
+        spread, kept = bright_apart(frame.indirect.reshape(plan.h, plan.w, 3), settings.gather.interleave)
+        frame.indirect = kept.reshape(-1, 3) + _smooth(job, frame.near + spread.reshape(-1, 3))
         _guard(settings, "filter", {P.DIFFUSE_INDIRECT: frame.indirect})
-        if plan.need_glossy:
-            reflected = _smooth(job, reflected, 1)
-            _guard(settings, "filter", {P.GLOSSY_INDIRECT: reflected})
     lit = frame.images[P.DIFFUSE_COLOR] * frame.indirect + frame.glossy_color * reflected  # the light in Combined
     frame.images[P.COMBINED][:, :3] += lit
     lit = np.asarray(lit, np.float32) if settings.denoise and settings.denoise_indirect_apart else None
@@ -588,14 +595,14 @@ def _filter(job: _Job, timing: dict[str, float]) -> np.ndarray | None:
     return lit
 
 
-def _smooth(job: _Job, image: np.ndarray, kind: int) -> np.ndarray:
-    """Lobe ``kind``'s light (W*H,3) filtered among the pixels that have that lobe, guided by its own samples
+def _smooth(job: _Job, image: np.ndarray) -> np.ndarray:
+    """The near light (W*H,3) filtered among the pixels that gathered it, guided by their diffuse samples
     (``gather.bilateral.deinterleave``)."""
     frame, plan, h, w = job.frame, job.plan, job.plan.h, job.plan.w
-    count = frame.guide_count[kind]
-    position = frame.guide_position[kind] / np.maximum(count, 1)[:, None]
-    normal = frame.guide_normal[kind] / np.maximum(np.linalg.norm(frame.guide_normal[kind], axis=1, keepdims=True),
-                                                   1e-30)  # float32's
+    count = frame.guide_count
+    position = frame.guide_position / np.maximum(count, 1)[:, None]
+    normal = frame.guide_normal / np.maximum(np.linalg.norm(frame.guide_normal, axis=1, keepdims=True),
+                                             1e-30)  # float32's
     return deinterleave(image.reshape(h, w, 3), position.reshape(h, w, 3), normal.reshape(h, w, 3),
                         (count > 0).reshape(h, w), pixel_footprint(plan.cam, position).reshape(h, w),
                         job.settings.gather.interleave, job.settings.threads).reshape(-1, 3)

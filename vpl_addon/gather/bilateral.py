@@ -17,12 +17,15 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from scipy.ndimage import uniform_filter
 
+from ..core.color import largest
 from ..core.compiled import kernel
 
 PLANE_SIGMA = 2.0  # tangent-plane distance, in pixel footprints, at which a neighbour's weight falls to 1/e
 NORMAL_POWER = 16  # weight ~ (n . n')^power
 UNDERFLOW = 746.0  # exp(-x) is 0 in float64 beyond this
+BRIGHT = 4.0  # a pixel brighter than this many times its window's mean keeps the excess (``bright_apart``)
 
 
 def deinterleave(image: np.ndarray, position: np.ndarray, normal: np.ndarray, valid: np.ndarray,
@@ -47,6 +50,20 @@ def deinterleave(image: np.ndarray, position: np.ndarray, normal: np.ndarray, va
         with ThreadPoolExecutor(bands) as pool:
             list(pool.map(band, range(bands)))
     return out
+
+
+def bright_apart(image: np.ndarray, tile: int) -> tuple[np.ndarray, np.ndarray]:
+    """(H,W,3) ``image`` in two parts that sum to it: what the filter may spread, and the excess of each pixel
+    brighter (by its largest channel) than ``BRIGHT`` times the mean of its 2t x 2t filter window, kept where it
+    is. A rare bright sample (a caustic's, over metal) then stays one bright pixel, as in a path tracer's picture,
+    instead of becoming a square of its light the size of the window; a smooth image is all spread."""
+    level = largest(image.reshape(-1, 3)).reshape(image.shape[:2])
+    mean = uniform_filter(level, size=2 * max(int(tile), 1), mode="nearest")
+    bright = level > BRIGHT * mean
+    scale = np.ones_like(level)
+    scale[bright] = BRIGHT * mean[bright] / level[bright]
+    spread = image * scale[..., None]
+    return spread, image - spread
 
 
 @kernel

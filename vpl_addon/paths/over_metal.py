@@ -40,13 +40,13 @@ CHAIN = 4
 
 
 def over_metal(surface: Surface, lobe: GlossyLobe | None, scene, tracer, lights, rng: np.random.Generator,
-               vpl_light: Callable[[Surface, np.ndarray], np.ndarray], max_bounces: int) -> np.ndarray:
+               vpl_light: Callable[[Surface], np.ndarray], max_bounces: int) -> np.ndarray:
     """(K,3) indirect light the points of ``surface`` receive over metal: reflected by a white Lambertian surface
     (``lobe`` None: what the gather leaves out of ``Diffuse Indirect``) or by the metallic ``lobe`` with its
     colour (its whole ``Glossy Indirect`` times ``Glossy Color``).
 
-    ``vpl_light(points, owner)`` is the caller's gather: the light of the VPLs at diffuse ``points`` (a white
-    Lambertian receiver), ``owner`` the index of the start point each belongs to (its pixel's VPL subset)."""
+    ``vpl_light(points)`` is the caller's gather: the light of the VPLs at diffuse ``points`` (a white Lambertian
+    receiver)."""
     out = np.zeros((len(surface), 3))
     if len(surface) == 0 or not scene.materials.glossy or max_bounces <= 0:
         return out
@@ -64,7 +64,7 @@ def over_metal(surface: Surface, lobe: GlossyLobe | None, scene, tracer, lights,
                 end = PathVertices(y.take(ends), owner[ends], carry[ends] * boost[:, None])
                 light = direct_light(end.point, lights, tracer, 1, rng)[0]
                 if step + 1 <= max_bounces:
-                    light = light + vpl_light(end.point, end.owner)
+                    light = light + vpl_light(end.point)
                 out += group_sum(end.owner, end.throughput * light, len(out))
                 following.append(end)
             shiny = np.nonzero(y.glossy & (largest(carried) > 0.0))[0]

@@ -102,7 +102,7 @@ def place(scene, tracer, lights, camera_points, target: int, standard: VirtualLi
     x1 = tuple(np.concatenate([p[1][i] for p in parts]) for i in range(3))
     feeding = np.nonzero(standard.bounce <= max_bounces - 1)[0]  # keep the whole path within the bounce limit
 
-    def standard_light(points, owner=None):
+    def standard_light(points):
         """Light of the standard VPLs at ``points``: a uniform sample of the feeding ones, scaled to their sum."""
         k = len(points)
         if len(feeding) == 0 or standard_samples <= 0:
