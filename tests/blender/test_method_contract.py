@@ -39,7 +39,8 @@ def place(context, settings):
 
 
 def gather(surface, lights, context, settings, rng, glossy=None, pixel=None):
-    return np.full((len(surface.position), 3), settings.ambient.level)
+    near = np.full((len(surface.position), 3), settings.ambient.level)
+    return near, np.zeros_like(near)  # nothing comes over continued paths
 
 
 METHOD = Method("ambient", "Ambient", "A constant ambient light", place, AmbientSettings, gather=gather,

@@ -11,8 +11,11 @@ plugin behind one interface and one registration line (``include/mitsuba/render/
   reporting (paths traced, shares...). ``settings`` is the whole ``MethodSettings``; a method reads its own part
   under its name (``settings.vbnl``) and the shared VPL budget ``settings.vpls``.
 * Lights that are summed (VPLs) go to the one interleaved gather (``gather.summing``); a method whose lights are
-  sampled instead brings ``gather(surface, lights, context, settings, rng, glossy=None, pixel=None) -> (K,3)`` and
-  ``gather_samples(settings, camera_samples) -> int``, the sample pairs a pixel takes.
+  sampled instead brings ``gather(surface, lights, context, settings, rng, glossy=None, pixel=None)`` and
+  ``gather_samples(settings, camera_samples) -> int``, the sample pairs a pixel takes. The gather returns two (K,3)
+  parts: the light the point's own samples find, which the frame's filter may smooth when the picture is not
+  denoised, and the light of paths continued past it (over metal: a caustic's rare bright samples), left as
+  sampled, so that no filter spreads one such sample over a square of pixels.
 * A method that keeps a state from frame to frame of a sequence provides ``start(context, settings) -> state`` (a
   cold start, warm-up included, so a chunk of frames can begin on another machine) and ``advance(state, context,
   settings, motion) -> (VirtualLights, info)``; without them a sequence reuses the previous frame's lights when

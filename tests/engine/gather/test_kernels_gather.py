@@ -7,7 +7,7 @@ from vpl_addon.core.camera import Camera, view_window
 from vpl_addon.core.scene import Materials, Scene
 from vpl_addon.core.tracer import Tracer
 from vpl_addon.gather import summing
-from vpl_addon.gather.bilateral import NORMAL_POWER, PLANE_SIGMA, deinterleave
+from vpl_addon.gather.bilateral import BRIGHT, NORMAL_POWER, PLANE_SIGMA, bright_apart, deinterleave
 from vpl_addon.gather.summing import GatherSettings, gather
 from vpl_addon.gather.virtual_lights import VirtualLights
 from vpl_addon.lights import LightSet, PointLight
@@ -18,9 +18,15 @@ from vpl_addon.methods.vbnl import virtual_light_sampling
 from vpl_addon.methods.vbnl.virtual_light_sampling import SamplingSettings
 from vpl_addon.methods.vbnl.morton import radix_tree
 from vpl_addon.methods.vbnl.virtual_light_sampling import _descend, splits
-from vpl_addon.methods.vbnl.virtual_light_sampling import gather as sampled_gather
+from vpl_addon.methods.vbnl.virtual_light_sampling import gather as sampled_parts
 from vpl_addon.paths import vertices
 from vpl_addon.paths.gbuffer import GBuffer
+
+
+def _sampled_gather(*args, **kwargs) -> np.ndarray:
+    """The sampled gather's whole light: its two parts (over no metal, over metal) added."""
+    near, further = sampled_parts(*args, **kwargs)
+    return near + further
 
 
 def guides(h, w, seed=0):
@@ -80,6 +86,24 @@ def test_filter_keeps_pixels_without_a_surface_or_weight():
 def test_filter_of_tile_one_is_the_image():
     image = guides(5, 6)[0]
     assert deinterleave(image, *guides(5, 6)[1:], 1) is image
+
+
+def test_bright_apart_keeps_a_rare_sample_and_spreads_smooth_light():
+    """A lone bright pixel keeps its excess over BRIGHT times its 8 x 8 window's mean (so the filter spreads
+    little of it); a smooth image, black pixels and its window's other pixels are all spread; the parts sum to the
+    image."""
+    rng = np.random.default_rng(3)
+    image = rng.uniform(0.9, 1.1, (16, 20, 3))
+    image[:, :3] = 0.0
+    image[8, 10] = [500.0, 100.0, 0.0]
+    spread, kept = bright_apart(image, 4)
+    np.testing.assert_allclose(spread + kept, image)
+    window_mean = (image[4:12, 6:14].max(axis=2).sum()) / 64
+    np.testing.assert_allclose(spread[8, 10, 0], BRIGHT * window_mean)
+    np.testing.assert_allclose(spread[8, 10] / spread[8, 10, 0], [1.0, 0.2, 0.0])  # its colour kept
+    assert kept[8, 10, 0] > 0.9 * 500.0
+    kept[8, 10] = 0.0
+    assert not kept.any() and np.isfinite(spread).all()
 
 
 def block_room():
@@ -218,8 +242,8 @@ def test_sampled_gather_gives_the_light_it_gave_before_its_kernels(monkeypatch):
     sampling = SamplingSettings(n_min=0.5, n_max=3.0)  # sparse lights: some hits extend, some do not
     surface = GBuffer.build(scene, tracer, np.arange(144), 4, np.random.default_rng(3)).surface
     light_set = LightSet(scene)
-    diffuse = sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 3)
-    glossy = sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 3,
+    diffuse = _sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 3)
+    glossy = _sampled_gather(surface, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 3,
                             GlossyLobe.of(surface))
     # to 1e-6: numpy's float64 sines and cosines differ in their last bits between CPUs (AVX-512 or not), which
     # moves these sums by 6e-8 (recorded on an AVX-512 CPU; an AMD EPYC without it gives 97.335169...); every
@@ -247,14 +271,14 @@ def test_light_samples_toward_the_discs_keep_the_gather_unbiased(monkeypatch):
     many = surface.take(np.repeat(np.arange(len(surface)), 1024))
     sampling = SamplingSettings(extension=False)
     light_set = LightSet(scene)
-    both = sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 1)
+    both = _sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(4), sampling, 1)
     estimate = virtual_light_sampling._estimate
 
     def bsdf_alone(v, out, lights, scene, tracer, light_set, numbers, rng, settings, radiance, choice, *rest):
         return estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, radiance, 0.0 * choice,
                         rest[0], rest[1], 0.0, *rest[3:])
     monkeypatch.setattr(virtual_light_sampling, "_estimate", bsdf_alone)
-    alone = sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 1)
+    alone = _sampled_gather(many, lights, scene, tracer, light_set, np.random.default_rng(5), sampling, 1)
     per_point = [e.sum(axis=1).reshape(len(surface), -1) for e in (both, alone)]
     assert per_point[0].sum() == pytest.approx(per_point[1].sum(), rel=0.02)
     spread = [(p.std(axis=1) / np.maximum(p.mean(axis=1), 1e-12)).mean() for p in per_point]
@@ -276,7 +300,7 @@ def test_a_pixels_sample_pairs_from_one_net_each_cut_its_noise():
     light_set = LightSet(scene)
     means = {}
     for nets in (True, False):
-        means[nets] = np.array([sampled_gather(surface.take(pixel), lights, scene, tracer, light_set,
+        means[nets] = np.array([_sampled_gather(surface.take(pixel), lights, scene, tracer, light_set,
                                                np.random.default_rng(seed), sampling, 3,
                                                pixel=pixel if nets else None).sum(axis=1).reshape(-1, 64).mean(axis=1)
                                 for seed in range(4)])
@@ -319,9 +343,9 @@ def test_a_path_gathers_the_same_light_whatever_other_paths_are_traced_with_it()
     half = np.nonzero(pixel % 2 == 0)[0]
     sampling = SamplingSettings(n_min=0.5, n_max=3.0)  # some hits extend, and go on by roulette
     light_set = LightSet(scene)
-    every = sampled_gather(surface.take(pixel), lights, scene, tracer, light_set, np.random.default_rng(5), sampling,
+    every = _sampled_gather(surface.take(pixel), lights, scene, tracer, light_set, np.random.default_rng(5), sampling,
                            3, pixel=pixel)
-    alone = sampled_gather(surface.take(pixel[half]), lights, scene, tracer, light_set, np.random.default_rng(5),
+    alone = _sampled_gather(surface.take(pixel[half]), lights, scene, tracer, light_set, np.random.default_rng(5),
                            sampling, 3, pixel=pixel[half])
     assert every[half].sum() > 0.0
     np.testing.assert_allclose(alone, every[half], rtol=1e-12, atol=1e-300)

@@ -69,9 +69,13 @@ class SamplingSettings:
 
 
 def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, settings: SamplingSettings,
-           max_depth: int, glossy: GlossyLobe | None = None, pixel: np.ndarray | None = None) -> np.ndarray:
+           max_depth: int, glossy: GlossyLobe | None = None,
+           pixel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """(K,3) indirect light at the points of ``surface`` from the ``PhotonLights``, one sample pair per point:
-    reflected by a white Lambertian surface, or by the metallic lobe ``glossy`` (with its colour) if given.
+    reflected by a white Lambertian surface, or by the metallic lobe ``glossy`` (with its colour) if given. In
+    two parts, as the method contract asks: the light of paths that meet no metallic lobe past the point, and the
+    light that comes over metal (a caustic's rare bright samples among it), which no filter may spread. A vertex's
+    ``branch`` tells them apart: it is 0 until its path takes a metallic lobe (``PathVertices.branch``).
 
     ``pixel`` (K,), the pixel of each point: the pairs of a pixel (and the vertices their paths extend to) draw
     their numbers from nets it shares (``sampling.PathNumbers``) instead of independent ones, so that a pixel's
@@ -80,9 +84,10 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
     (``bench/sample_counts.py cornell_area --samples 16 --light-samples 2 --pairs 64``). The numbers are keyed by
     the path and its depth, so a path that stops or goes on leaves every other path's numbers as they were: a
     slightly changed set of lights (the next frame of a sequence) changes the noise only where the light changed."""
-    out = np.zeros((len(surface), 3))
-    if len(surface) == 0 or len(lights) == 0 or max_depth <= 0:
-        return out
+    k = len(surface)
+    out = np.zeros((2 * k, 3))  # rows [0, k): light that came over no metal; [k, 2k): light over metal
+    if k == 0 or len(lights) == 0 or max_depth <= 0:
+        return out[:k], out[k:]
     density = lights.density
     order, nodes = lights.tree(scene.bounds)
     level = [PathVertices(surface, np.arange(len(surface)), np.ones((len(surface), 3)), glossy)]
@@ -105,7 +110,7 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
             following += _estimate(v, out, lights, scene, tracer, light_set, numbers, draws, settings, radiance,
                                    choice, tree, density, total_power, extend)
         level = merged(following)
-    return out
+    return out[:k], out[k:]
 
 
 def _numbers(paths: PathNumbers | None, rng, depth: int, count: int, owner: np.ndarray, branch: np.ndarray,
@@ -119,8 +124,9 @@ def _numbers(paths: PathNumbers | None, rng, depth: int, count: int, owner: np.n
 
 def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, radiance, choice, tree, density,
               total_power, extend):
-    """Adds the light sample and the BSDF sample of the vertices ``v`` to ``out``; returns the vertices the
-    camera path continues to (eq. 6-9 for the diffuse part at each hit, always for a metallic lobe there).
+    """Adds the light sample and the BSDF sample of the vertices ``v`` to ``out`` (each vertex's owner's row in
+    the half of ``out`` its branch says); returns the vertices the camera path continues to (eq. 6-9 for the
+    diffuse part at each hit, always for a metallic lobe there).
     ``numbers(count, owner, branch, stream)`` gives the uniform numbers of the vertices ``branch`` of the paths
     ``owner`` at this depth, ``rng`` the rest (a metallic hit's).
 
@@ -145,15 +151,22 @@ def _estimate(v, out, lights, scene, tracer, light_set, numbers, rng, settings, 
     hit_light = np.full(len(at), -1)
     hit_light[light_hit] = drawn[source[light_hit]]
     pair, light, share = _covering(lights, y)
-    mean_share = _add_samples(out, owner, source, weight, hit_light, p_light, pdf, toward, w, y.position,
-                              y.shading_normal, point.position, pair, light, share, lights.position,
-                              lights.normal, lights.radius, choice, radiance, density, float(settings.n_min),
-                              max(settings.n_max - settings.n_min, 1e-9), extend, *lights.linear)
+    mean_share = _add_samples(out, _row(owner, branch, len(out) // 2), source, weight, hit_light, p_light, pdf,
+                              toward, w, y.position, y.shading_normal, point.position, pair, light, share,
+                              lights.position, lights.normal, lights.radius, choice, radiance, density,
+                              float(settings.n_min), max(settings.n_max - settings.n_min, 1e-9), extend,
+                              *lights.linear)
     if not extend:
         return []
     bsdf_hit = np.nonzero(hit_light < 0)[0]
     return _extended(y, bsdf_hit, owner[source], branch[source], weight, mean_share, light_set, tracer, numbers, rng,
                      out)
+
+
+def _row(owner: np.ndarray, branch: np.ndarray, k: int) -> np.ndarray:
+    """The rows of ``gather``'s (2K,3) output that vertices of ``owner`` and ``branch`` add to: a path that took a
+    metallic lobe (branch > 0) adds to the second half."""
+    return owner + k * (branch > 0)
 
 
 def _light_directions(point, lights, u, levels, choice, tree, total_power):
@@ -192,13 +205,13 @@ def _extended(y, rows, owner, branch, carried, mean_share, light_set, tracer, nu
     go, boost = roulette(carry, rng, numbers(1, owner[rows], branch[rows], 1)[0])
     following = [PathVertices(y.take(rows[go]), owner[rows[go]], carry[go] * boost[:, None], None,
                               2 * branch[rows[go]])]
-    at = following[0].owner
+    at, k = following[0].owner, len(out) // 2
     given = tuple(numbers(5, at, branch[rows[go]], 2)[:, :, None])
-    out += group_sum(at, following[0].throughput *
+    out += group_sum(_row(at, branch[rows[go]], k), following[0].throughput *
                      direct_light(following[0].point, light_set, tracer, 1, rng, numbers=given)[0], len(out))
     shiny = rows[y.glossy[rows]]
-    if len(shiny):
-        following.append(at_metal(y, shiny, owner, carried, light_set, tracer, rng, out, branch))
+    if len(shiny):  # light over metal from here on
+        following.append(at_metal(y, shiny, owner, carried, light_set, tracer, rng, out[k:], branch))
     return following
 
 
