@@ -1,0 +1,67 @@
+"""No square blocks in the light passes (issue 70), without Blender: a white floor under a low sun, with a small
+rough metal plate standing over it that throws the sun's light down onto the floor. A camera path from the floor
+that finds the plate, and at the plate the sun, is a rare bright sample (a caustic, as in Cycles' own paths); the
+gather's filter, which evens out the interleaving over 2t x 2t windows, once spread each such sample over a flat
+square of that size. The floor gets no other indirect light (its own VPLs cannot light it), so such a square
+stands out on a black ground."""
+import numpy as np
+import pytest
+
+from vpl_addon.core.camera import Camera, view_window
+from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.lights.sun import SunLight
+from vpl_addon.methods import METHODS
+from vpl_addon.render import RenderSettings, render
+
+LIGHT_PASSES = ("Diffuse Direct", "Diffuse Indirect", "Glossy Direct", "Glossy Indirect", "Combined")
+SIZE = 48
+
+
+def _plate_over_a_floor() -> Scene:
+    far, half = 20.0, 0.2
+    normal = np.array([-2.0, 0.0, -1.0]) / np.sqrt(5.0)  # toward the low sun and down to the floor
+    side, up = np.array([0.0, half, 0.0]), half * np.array([-1.0, 0.0, 2.0]) / np.sqrt(5.0)
+    centre = np.array([0.5, 0.0, 0.6])
+    a, b, c, d = centre - side - up, centre + side - up, centre + side + up, centre - side + up
+    plate = [[a, b, c], [a, c, d]] if np.cross(b - a, c - a) @ normal > 0 else [[a, c, b], [a, d, c]]
+    tri = np.array([[[-far, -far, 0], [far, -far, 0], [far, far, 0]],
+                    [[-far, -far, 0], [far, far, 0], [-far, far, 0]], *plate], float)
+    materials = Materials.make([{"name": "white", "base_color": (0.8, 0.8, 0.8)},
+                                {"name": "metal", "base_color": (0.95, 0.9, 0.8), "metallic": 1.0,
+                                 "roughness": 0.3}])
+    look = np.eye(4)
+    look[:3, 3] = [0.0, 0.0, 4.0]  # straight down at the floor around the plate
+    cam = Camera(look, SIZE, SIZE, view_window(SIZE, SIZE, orthographic=True, ortho_scale=3.0), orthographic=True)
+    sun = SunLight("sun", [1.0, 0.0, -0.3], [3.0] * 3)
+    return Scene.build(tri, materials, [sun], cam, material=[1, 1, 2, 2])
+
+
+def flat_blocks(image: np.ndarray, size: int) -> list[tuple[int, int]]:
+    """The size x size windows of ``image`` (H,W,C) whose largest inner pixel-to-pixel step is below a quarter of
+    the typical (median) step across their border while that border step is a fifth of their level or more: a
+    flat square. A smooth gradient or single bright pixels do not qualify; the filter's squares on the helmet
+    under its HDR had border steps 27 to 1,680 times their inner ones."""
+    y = image[..., :3].mean(axis=-1).astype(np.float64)
+    dx, dy = np.abs(np.diff(y, axis=1)), np.abs(np.diff(y, axis=0))
+    found = []
+    for i in range(1, y.shape[0] - size):
+        for j in range(1, y.shape[1] - size):
+            inner = max(dx[i:i + size, j:j + size - 1].max(), dy[i:i + size - 1, j:j + size].max())
+            border = np.median(np.concatenate([dx[i:i + size, j - 1], dx[i:i + size, j + size - 1],
+                                               dy[i - 1, j:j + size], dy[i + size - 1, j:j + size]]))
+            if border > 0.2 * y[i:i + size, j:j + size].mean() > 0.0 and inner < 0.25 * border:
+                found.append((i, j))
+    return found
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+def test_no_light_pass_holds_a_flat_square(method):
+    """At the defaults (the filter on, not denoised), every light pass of every method: no flat 2t x 2t square,
+    and the caustic's bright samples are there (pixels of the floor's Diffuse Indirect at ten times its mean)."""
+    settings = RenderSettings(samples=16, method=method, seed=1, passes=LIGHT_PASSES)
+    passes = render(_plate_over_a_floor(), settings).passes
+    side = 2 * settings.gather.interleave
+    blocks = {name: len(flat_blocks(passes[name], side)) for name in LIGHT_PASSES}
+    assert not any(blocks.values()), blocks
+    indirect = passes["Diffuse Indirect"][..., :3].mean(axis=-1)
+    assert (indirect > 10.0 * indirect.mean()).sum() >= 3
