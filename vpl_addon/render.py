@@ -32,7 +32,7 @@ from typing import Callable
 import numpy as np
 
 from .core import passes as P
-from .core.color import largest
+from .core.color import largest, limit_scale
 from .core.denoise import DenoiseCancelled, DenoiserMissing, check as check_denoising, denoise, prefilter_for, \
     available as denoiser_available
 from .core.memory import trim_heap
@@ -496,12 +496,23 @@ def _gather_light(job: _Job, gbuf: GBuffer, rng: np.random.Generator, rows: np.n
     surf, plan, placed = gbuf.surface, job.plan, job.placed
     if plan.sampled is None:
         glossy = None if lobe is None else lobe.take(rows)
-        return _summed(job, surf.take(rows), glossy, gbuf.pixel_of_hit[rows], rng)
+        return _clamped(job, *_summed(job, surf.take(rows), glossy, gbuf.pixel_of_hit[rows], rng))
     many = np.repeat(rows, plan.repeats)
-    parts = plan.sampled(surf.take(many), placed.vpls, placed.context, plan.placement, rng,
-                         glossy=None if lobe is None else lobe.take(many), pixel=gbuf.sample[many] // gbuf.spp)
+    parts = _clamped(job, *plan.sampled(surf.take(many), placed.vpls, placed.context, plan.placement, rng,
+                                        glossy=None if lobe is None else lobe.take(many),
+                                        pixel=gbuf.sample[many] // gbuf.spp))
     near, further = (part.reshape(len(rows), plan.repeats, 3).mean(axis=1) for part in parts)
     return near, further
+
+
+def _clamped(job: _Job, near: np.ndarray, further: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A gathering sample's two parts of light scaled alike so that their sum is at most Clamp Indirect
+    (``GatherSettings.clamp_indirect``) in its brightest channel; as they are when it is off."""
+    limit = job.settings.gather.clamp_indirect
+    if limit <= 0.0:
+        return near, further
+    scale = limit_scale(near + further, limit)[:, None]
+    return near * scale, further * scale
 
 
 def _summed(job: _Job, points, glossy: GlossyLobe | None, pixel: np.ndarray,

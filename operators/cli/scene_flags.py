@@ -86,7 +86,7 @@ def check_range(settings, flag, value):
 
 # the flags of the render settings that are not placement settings (those come from ``PLACEMENT``)
 SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "indirect_samples", "clamp", "interleave",
-                 "denoising_prefilter", "denoising_quality")
+                 "clamp_indirect", "denoising_prefilter", "denoising_quality")
 
 
 def placement_flag(r, setting) -> None:
@@ -120,6 +120,8 @@ def render_flags(r) -> None:
     r.add_argument("--indirect-samples", type=int, help="camera samples per pixel that gather from the VPLs")
     r.add_argument("--clamp", type=float, help="geometry clamping: minimum distance in mean VPL spacings")
     r.add_argument("--interleave", type=int, help="interleaving tile size (1 = exact gather)")
+    r.add_argument("--clamp-indirect", type=float,
+                   help="as Cycles' Clamp Indirect: the largest value a sample of indirect light may take (0 = off)")
     r.add_argument("--no-filter", action="store_true",
                    help="skip the geometry-aware filter of the indirect light (a denoised render skips it anyway)")
     r.add_argument("--denoise", action="store_true",

@@ -26,13 +26,13 @@ SUMMED_GATHER = ("indirect_samples", "clamp", "interleave")
 def indirect_settings(method: str) -> list[str]:
     """The settings the render panel shows under Indirect for ``method`` (a name of ``METHODS``, or none): the VPL
     budget, the method's own settings, path reuse where it keeps light paths, the summing gather's where it sums its
-    lights, and the filter."""
+    lights, the filter, and Clamp Indirect where there is indirect light."""
     chosen = METHODS.get(method)
     if chosen is None:
         return ["vpls", "filter"]
     return ["vpls", *(setting.prop for setting in chosen.options()),
             *(PATH_REUSE if chosen.reuses_light_paths else ()), *(SUMMED_GATHER if chosen.sums_lights else ()),
-            "filter"]
+            "filter", "clamp_indirect"]
 
 
 class _VPLGIPanel:

@@ -100,6 +100,11 @@ class VPLGISettings(bpy.types.PropertyGroup):
         name="Filter", default=_GATHER.filter,
         description="Geometry-aware filter that removes the interleaving pattern. Not used when the render is "
                     "denoised: OpenImageDenoise does better on the unfiltered light")
+    clamp_indirect: bpy.props.FloatProperty(
+        name="Clamp Indirect", default=_GATHER.clamp_indirect, min=0.0, soft_max=100.0,
+        description="As Cycles' Clamp Indirect: the largest value a sample of indirect light may take (0 = off). "
+                    "Higher values are more accurate; lower ones remove the fireflies of caustics over metal at "
+                    "the cost of their light")
     denoise: bpy.props.BoolProperty(
         name="Denoise", default=True,
         description="Denoise the finished image (Combined) with OpenImageDenoise, guided by the surfaces' albedo and "
@@ -187,7 +192,8 @@ class VPLGISettings(bpy.types.PropertyGroup):
                               film_transparent=self.id_data.render.film_transparent,
                               threads=self.id_data.render.threads,  # Blender's: every core, a fixed number or -t
                               method=self.method, indirect_samples=self.indirect_samples, placement=placement,
-                              gather=GatherSettings(interleave=self.interleave, clamp=self.clamp, filter=self.filter))
+                              gather=GatherSettings(interleave=self.interleave, clamp=self.clamp, filter=self.filter,
+                                                    clamp_indirect=self.clamp_indirect))
 
     def viewport_settings(self) -> ViewportSettings:
         """The progressive render of the 3D view's Rendered shading (``vpl_addon.progressive``)."""

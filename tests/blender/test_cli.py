@@ -56,6 +56,24 @@ def test_denoise_whole_reaches_the_engine(tmp_path):
     assert np.abs(images[0]["Combined"] - images[1]["Combined"]).max() > 1e-4
 
 
+def test_clamp_indirect_reaches_the_engine_and_is_off_by_default(ext, tmp_path):
+    """The panel's Clamp Indirect is 0 (off) until set; ``--clamp-indirect`` bounds every sample of the unfiltered
+    Diffuse Indirect, which goes well above it unclamped."""
+    import bpy
+    from vpl_addon.core.exr import read_passes
+    bpy.ops.wm.open_mainfile(filepath=str(EXAMPLES / "cornell_area.blend"))
+    assert bpy.context.scene.vpl_gi.clamp_indirect == 0.0
+    assert bpy.context.scene.vpl_gi.render_settings(("Combined",)).gather.clamp_indirect == 0.0
+    peaks = []
+    for flags in ((), ("--clamp-indirect", "0.05")):
+        out = tmp_path / f"clamp{len(flags)}.exr"
+        code, _, stderr = run_cli("render", EXAMPLES / "cornell_area.blend", "-o", out, "--percentage", "12",
+                                  "--samples", "2", "--light-samples", "1", "--method", "ir", "--no-filter", *flags)
+        assert code == 0, stderr
+        peaks.append(read_passes(str(out))[0]["Diffuse Indirect"][..., :3].max())
+    assert peaks[0] > 0.1 and peaks[1] <= 0.05 * (1 + 1e-6)
+
+
 def test_gather_samples_follow_the_samples_until_set(ext):
     """The render panel's Gather Samples is 0 until set: vbnl then gathers one pair per camera sample, so a user
     who raises Samples (as in Cycles) raises the indirect light's samples too; a number set by hand holds."""

@@ -17,6 +17,17 @@ def largest(rgb: np.ndarray) -> np.ndarray:
     return np.maximum(np.maximum(rgb[:, 0], rgb[:, 1]), rgb[:, 2])
 
 
+def limit_scale(rgb: np.ndarray, limit: float) -> np.ndarray:
+    """(N,) the factor that brings each row of ``rgb`` (N,3) down to ``limit`` in its largest channel, the colour
+    kept: 1 where it is no brighter, and everywhere for ``limit`` 0 (no limit), as Cycles' clamping."""
+    scale = np.ones(len(rgb))
+    if limit > 0.0:
+        level = largest(rgb)
+        over = level > limit
+        scale[over] = limit / level[over]
+    return scale
+
+
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     """Linear values of sRGB-encoded ones (the IEC 61966-2-1 transfer function, as Blender's colour management)."""
     c = np.asarray(c)

@@ -29,10 +29,15 @@ class GatherSettings:
     interleave: int = 4  # tile size t: t*t VPL subsets; 1 = exact gather (every point sees every VPL)
     clamp: float = 0.5  # d_min as a multiple of the mean VPL spacing sqrt(area / (pi N)); 0 = no clamping
     filter: bool = True  # geometry-aware filter after interleaving
+    # Cycles' Clamp Indirect: the largest value a gathering sample's indirect light may take (its brightest
+    # channel, the colour kept); 0 = off. It trades the rare bright samples of caustics for bias, as in Cycles
+    clamp_indirect: float = 0.0
 
     def __post_init__(self):
-        if not (np.isfinite(self.clamp) and self.clamp >= 0.0):  # NaN would spread to every pixel of the gather
-            raise ValueError(f"clamp must be a finite number of at least 0 (got {self.clamp})")
+        for name in ("clamp", "clamp_indirect"):  # NaN would spread to every pixel of the gather
+            value = getattr(self, name)
+            if not (np.isfinite(value) and value >= 0.0):
+                raise ValueError(f"{name} must be a finite number of at least 0 (got {value})")
 
 
 def clamp_distance(surface_area: float, count: int, clamp: float) -> float:

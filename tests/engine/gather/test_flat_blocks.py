@@ -3,7 +3,7 @@ rough metal plate standing over it that throws the sun's light down onto the flo
 that finds the plate, and at the plate the sun, is a rare bright sample (a caustic, as in Cycles' own paths); the
 gather's filter, which evens out the interleaving over 2t x 2t windows, once spread each such sample over a flat
 square of that size. The floor gets no other indirect light (its own VPLs cannot light it), so such a square
-stands out on a black ground."""
+stands out on a black ground. The same caustic's samples are what Clamp Indirect, as in Cycles, cuts down."""
 import numpy as np
 import pytest
 
@@ -65,3 +65,23 @@ def test_no_light_pass_holds_a_flat_square(method):
     assert not any(blocks.values()), blocks
     indirect = passes["Diffuse Indirect"][..., :3].mean(axis=-1)
     assert (indirect > 10.0 * indirect.mean()).sum() >= 3
+
+
+@pytest.mark.parametrize("method", ["ir", "vbnl"])
+def test_clamp_indirect_bounds_each_sample_and_is_off_by_default(method):
+    """Clamp Indirect at 0.5: no pixel of the unfiltered Diffuse Indirect (a mean of its samples) above it, the
+    caustic's light cut down and the rest kept; at 0 (the default) and above every sample, the image unclamped."""
+    scene = _plate_over_a_floor()
+
+    def indirect(limit):
+        settings = RenderSettings(samples=16, method=method, seed=1, passes=("Diffuse Indirect",))
+        settings.gather.filter = False
+        settings.gather.clamp_indirect = limit
+        return render(scene, settings).passes["Diffuse Indirect"][..., :3]
+    free, clamped, loose = indirect(0.0), indirect(0.5), indirect(1e6)
+    assert RenderSettings().gather.clamp_indirect == 0.0
+    assert free.max() > 2.0  # the caustic, four times the limit and more
+    assert clamped.max() <= 0.5 * (1 + 1e-6) and np.isfinite(clamped).all()
+    dim = free.max(axis=-1) < 0.01  # pixels whose every sample is far below the limit
+    np.testing.assert_array_equal(clamped[dim], free[dim])
+    np.testing.assert_array_equal(loose, free)
