@@ -94,6 +94,8 @@ def cmd_bake(args) -> int:
                         f"before its first frame {frames.start}, and not with --workers or --scheduler (they chunk "
                         f"the range themselves)")
     scene = prepare_scene(args)
+    if not farm:  # the workers compile their own
+        _kernels_for(scene.vpl_gi.method)
     t0 = time.perf_counter()
     if farm:
         return _bake_on_cluster(args, scene, frames, t0)

@@ -34,6 +34,7 @@ def test_a_static_bake_traces_light_paths_in_frame_one_only_and_resumes_by_skipp
     code, stdout, stderr = run_cli("bake", EXAMPLES / "cornell_area.blend", "--frames", "1:3", "-o", out,
                                    "--method", "bidir", *SMALL)
     assert code == 0, stderr
+    assert "kernels of bidir ready in" in stdout  # compiled before the frames, the other methods' left alone
     lines = [line for line in stdout.splitlines() if line.startswith("frame ")]
     assert len(lines) == 3 and " 0 light paths" not in lines[0]
     assert all(" 0 light paths (reused)" in line for line in lines[1:])
