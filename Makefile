@@ -121,12 +121,15 @@ extension: $(STAMP) $(WHEELS)
 	for platform in $(wordlist 2,99,$(VERSION_AND_PLATFORMS)); do \
 		$(BIN)/python $(BLENDER_EXT) validate dist/vpl_gi-$(word 1,$(VERSION_AND_PLATFORMS))-$$platform.zip || exit 1; done
 
-examples: $(STAMP)
-	$(BIN)/python example_blends/make_examples.py
-	$(BIN)/python example_blends/make_corridor.py
-	$(BIN)/python example_blends/make_metal.py
-	$(BIN)/python example_blends/make_pbr.py
-	$(BIN)/python example_blends/make_sequences.py
+# The example scenes, written by the oldest supported Blender (4.2's bpy, in the version matrix's venv): every newer one
+# opens its files, 4.2 does not open those of 5.0 ("not a blend file").
+EXAMPLES_PYTHON := $(BLENDER_VENVS)/4.2/bin/python
+examples: $(BLENDER_VENVS)/4.2/.installed
+	$(EXAMPLES_PYTHON) example_blends/make_examples.py
+	$(EXAMPLES_PYTHON) example_blends/make_corridor.py
+	$(EXAMPLES_PYTHON) example_blends/make_metal.py
+	$(EXAMPLES_PYTHON) example_blends/make_pbr.py
+	$(EXAMPLES_PYTHON) example_blends/make_sequences.py
 
 # The public scenes of ../shared/scenes (Mitsuba XML, Cornell measured data, glTF) as .blend files in scenes/ (git-ignored;
 # nothing from ../shared is committed). A file is rewritten only when the converter or its source changed.

@@ -8,7 +8,7 @@ paths from the lamp rarely leave VPLs where the camera looks, while camera paths
 The floor plan is a grid of 1 m cells; walls, floor and ceiling are the faces between open and closed cells, all
 facing into the open space. Run from the repository root:
 
-    .venv/bin/python example_blends/make_corridor.py [--out DIR] [--force]
+    .venv-blender/4.2/bin/python example_blends/make_corridor.py [--out DIR] [--force]
 """
 import bpy
 from mathutils import Vector

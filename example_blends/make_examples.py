@@ -1,8 +1,9 @@
 """Build the VPL GI example scenes (Cornell box variants) from scratch.
 
-Run with the project's bpy-enabled Python (Blender as a Python module):
+Run with Blender 4.2's Python module (the version matrix's venv, ``make examples``), the oldest Blender supported,
+so that every supported one opens the files:
 
-    .venv/bin/python example_blends/make_examples.py [--out DIR] [--force]
+    .venv-blender/4.2/bin/python example_blends/make_examples.py [--out DIR] [--force]
 
 Each scene starts from ``scene_building.reset_scene`` (metres, Z up, 256x256, Cycles with 64 samples and 8 bounces)
 and is written by ``scene_building.main`` as ``<name>.blend``. ``make_metal.py``, ``make_pbr.py`` and

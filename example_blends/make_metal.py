@@ -5,7 +5,7 @@ Principled BSDF with Metallic 1 and Roughness 0.3 (GGX, alpha = 0.09), a neutral
 hold Cycles' ``Glossy Direct`` / ``Glossy Indirect`` / ``Glossy Color`` and the walls receive light it reflects.
 Run from the repository root (it reuses make_examples.py's Cornell box):
 
-    .venv/bin/python example_blends/make_metal.py [--out DIR] [--force]
+    .venv-blender/4.2/bin/python example_blends/make_metal.py [--out DIR] [--force]
 """
 import bpy
 

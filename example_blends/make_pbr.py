@@ -8,7 +8,7 @@ imported back with Blender's own importer (shipped with ``bpy``), so the node pa
 The dielectric specular layer is on (Specular IOR Level 0.5, IOR 1.5, as glTF asks). Images: 64x64, generated.
 Run from the repository root (it reuses make_examples.py's Cornell box):
 
-    .venv/bin/python example_blends/make_pbr.py [--out DIR] [--force]
+    .venv-blender/4.2/bin/python example_blends/make_pbr.py [--out DIR] [--force]
 """
 import math
 import os

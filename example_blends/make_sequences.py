@@ -9,7 +9,7 @@ moving object.
 Both are 128x128 (the references cost a Cycles render per frame) with linear keyframes and saved at frame 1. Run
 from the repository root (it reuses make_examples.py's Cornell box):
 
-    .venv/bin/python example_blends/make_sequences.py [--out DIR] [--force]
+    .venv-blender/4.2/bin/python example_blends/make_sequences.py [--out DIR] [--force]
 """
 import math
 

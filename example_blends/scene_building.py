@@ -1,15 +1,16 @@
 """What the example scripts build their scenes from, and how they write them.
 
 Building: every scene starts from an empty factory-settings file set up the same way (``reset_scene``: metres,
-256x256 at 100 %, Cycles on the CPU with 64 samples and 8 bounces) and is made with ``bpy.data`` / ``bmesh`` only
-(no context-dependent operators except ``wm.read_factory_settings`` and ``wm.save_as_mainfile``): a World whose
-Background node sets colour and strength, pure diffuse Principled BSDF materials (Roughness 1, Metallic 0, Specular
-IOR Level 0), mesh objects from vertex/face lists, lights.
+256x256 at 100 %, Cycles on the CPU with 64 samples, 8 bounces and the Classic sampling pattern) and is made with
+``bpy.data`` / ``bmesh`` only (no context-dependent operators except ``wm.read_factory_settings`` and
+``wm.save_as_mainfile``): a World whose Background node sets colour and strength, pure diffuse Principled BSDF
+materials (Roughness 1, Metallic 0, Specular IOR Level 0), mesh objects from vertex/face lists, lights.
 
-Writing (``main``): each scene is saved, compressed, as ``<name>.blend`` into ``--out`` (default: this folder).
-Blender does not write byte-identical files for identical content, so each scene stores a fingerprint of the
-scripts that build it and Blender's version, and an existing file that already holds the scene is left untouched;
-``--force`` rewrites everything.
+Writing (``main``): each scene is saved, compressed, as ``<name>.blend`` into ``--out`` (default: this folder), by
+the Blender that runs the script: 4.2, the oldest supported (``make examples``), since every later one opens a 4.2
+file and 4.2 opens none written by 5.0. Blender does not write byte-identical files for identical content, so each
+scene stores a fingerprint of the scripts that build it and Blender's version, and an existing file that already
+holds the scene is left untouched; ``--force`` rewrites everything.
 """
 
 import argparse
@@ -50,6 +51,9 @@ def reset_scene():
     cycles.use_adaptive_sampling = False
     cycles.use_denoising = False
     cycles.seed = 0
+    # Classic, as a new scene of 5.0 has it and the Cycles references were rendered with; a new 4.2 scene has
+    # Automatic (blue noise)
+    cycles.sampling_pattern = 'TABULATED_SOBOL'
     cycles.max_bounces = 8
     cycles.diffuse_bounces = 8
     cycles.glossy_bounces = 8
