@@ -1,8 +1,9 @@
 """The version matrix (``make test-blender``): the Linux zip of ``make extension`` installed into the ``bpy`` module of
 every supported Blender (each in its own venv, ``VPL_GI_BLENDERS``: ``version=python`` pairs), its kernels compiled
 at registration, a scene made by script rendered twice through ``bpy.ops.render.render``, the extension disabled
-and enabled again and rendered once more (``versions_render.py``); every version's passes checked against the
-reference version's. Each version's install time, background compile time and first and second F12 are printed."""
+and enabled again and rendered once more, every committed example scene opened (``versions_render.py``); every
+version's passes checked against the reference version's. Each version's install time, background compile time
+and first and second F12 are printed."""
 import json
 import os
 import pathlib
@@ -69,6 +70,7 @@ def test_every_version_installs_renders_and_reenables(rounds):
         assert not figures["threads_after_disable"], (version, "a thread outlived the add-on")
         assert not figures["registered_after_disable"], (version, "disabling left the settings registered")
         assert not [m for level, m in figures["reenabled_reports"] if level == "ERROR"], version
+        assert not figures["examples_unopened"], (version, figures["examples_unopened"])
         for name in ("first", "second", "reenabled"):
             passes = read(out / f"{name}.exr")
             assert PASSES <= set(passes), (version, name, sorted(passes))

@@ -1,7 +1,8 @@
 """One Blender version's round of the version matrix (``test_versions.py``), run by that version's ``bpy`` Python:
 the zip installed into a throw-away user repository, the kernels compiled in the background, a scene made here (a
 .blend of a newer Blender does not open in an older one) rendered twice with F12's operator, the extension disabled
-and enabled again and rendered once more; the figures printed as one JSON line.
+and enabled again and rendered once more, then every committed example scene opened; the figures printed as one
+JSON line.
 
 Usage: python versions_render.py ZIP OUT_DIR (BLENDER_USER_EXTENSIONS, BLENDER_USER_CONFIG and VPL_GI_CACHE set).
 """
@@ -14,6 +15,8 @@ import time
 import bpy
 
 MODULE = "bl_ext.user_default.vpl_gi"
+EXAMPLES = os.path.join(os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__)))),
+                        "example_blends")
 
 
 def timed(function, *args, **kwargs) -> float:
@@ -77,6 +80,21 @@ def render(scene, path) -> float:
     return timed(bpy.ops.render.render, write_still=True)
 
 
+def unopened_examples() -> list[str]:
+    """The committed example scenes this Blender does not open with the add-on enabled, each with its error."""
+    failed = []
+    for name in sorted(os.listdir(EXAMPLES)):
+        if name.endswith(".blend"):
+            try:
+                bpy.ops.wm.open_mainfile(filepath=os.path.join(EXAMPLES, name), load_ui=False)
+            except RuntimeError as error:
+                failed.append(f"{name}: {error}")
+                continue
+            if not hasattr(bpy.context.scene, "vpl_gi"):
+                failed.append(f"{name}: opened without the add-on's settings")
+    return failed
+
+
 def main():
     zip_path, out_dir = sys.argv[1:3]
     figures = {"version": ".".join(map(str, bpy.app.version)), "python": sys.version.split()[0]}
@@ -105,6 +123,7 @@ def main():
     figures["reenabled_f12"] = render(scene, os.path.join(out_dir, "reenabled.exr"))
     figures["reenabled_reports"] = [list(r) for r in sys.modules[f"{MODULE}.operators.engine.render_engine"]
                                     .LAST_REPORTS]
+    figures["examples_unopened"] = unopened_examples()
     print("FIGURES " + json.dumps(figures), flush=True)
     if bpy.app.version < (4, 3, 0):  # the bpy 4.2 module crashes at interpreter exit once a panel was registered
         os._exit(0)
