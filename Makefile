@@ -5,20 +5,23 @@ BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 # Runtime wheels bundled into the extension, one set per platform of blender_manifest.toml, each for every Python the
 # supported Blenders bundle: cp311 (4.2 LTS to 5.0) and cp313 (5.1 and newer); Blender's installer unpacks those
-# matching its own. These versions are the one place the bundled wheels are pinned: the manifest's `wheels` list names
-# exactly `make -s print-wheels` (tests/blender/test_extension.py checks it). embreex 4.4 has macOS wheels for 13.0 or
-# newer only; scipy's are the widest ones that pip picks for macOS 13 (OpenBLAS builds, not the macOS 14 Accelerate
-# ones). numba 0.68 / llvmlite 0.50 accept numpy 1.26 to 2.5 (what Blender 4.2 to 5.2 ship); numba's macOS x86-64
-# wheels end at 0.62.1, which accepts numpy <= 2.3 only, so on an Intel Mac the kernels load in Blender 4.2 to 5.0 and
-# not in 5.1 or newer (numpy 2.5), where the add-on registers and says so (`dependencies.py`).
+# matching its own. The packages the development venv has too are pinned in requirements.txt alone and read from it
+# here, so the tests run the versions users get; cffi, pycparser and the Intel Mac's numba are pinned below. The
+# manifest's `wheels` list names exactly `make -s print-wheels` (tests/blender/test_extension.py checks it). embreex
+# 4.4 has macOS wheels for 13.0 or newer only; scipy's are the widest ones that pip picks for macOS 13 (OpenBLAS
+# builds, not the macOS 14 Accelerate ones). numba 0.68 / llvmlite 0.50 accept numpy 1.26 to 2.5 (what Blender 4.2
+# to 5.2 ship); numba's macOS x86-64 wheels end at 0.62.1, which accepts numpy <= 2.3 only, so on an Intel Mac the
+# kernels load in Blender 4.2 to 5.0 and not in 5.1 or newer (numpy 2.5), where the add-on registers and says so
+# (`dependencies.py`).
 PYTHONS := 311 313
-EMBREEX_VERSION := 4.4.0.post1
-SCIPY_VERSION := 1.17.1
-PYOIDN_VERSION := 2.5.1.0
+pin = $(shell sed -n 's/^$(1)==\([^ ]*\).*/\1/p' requirements.txt)
+EMBREEX_VERSION := $(call pin,embreex)
+SCIPY_VERSION := $(call pin,scipy)
+PYOIDN_VERSION := $(call pin,pyoidn)
+NUMBA_VERSION := $(call pin,numba)
+LLVMLITE_VERSION := $(call pin,llvmlite)
 CFFI_VERSION := 2.1.1
 PYCPARSER_VERSION := 3.12
-NUMBA_VERSION := 0.68.1
-LLVMLITE_VERSION := 0.50.0
 NUMBA_VERSION_MACOS_X64 := 0.62.1
 LLVMLITE_VERSION_MACOS_X64 := 0.45.1
 # $(call wheel,name,version,platform tag): the wheel of every Python of PYTHONS
