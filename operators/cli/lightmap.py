@@ -42,7 +42,8 @@ def cmd_lightmap(args) -> int:
     settings = _settings(args)
     ensure_registered()
     scene = open_blend(args.scene)
-    from ..output.lightmap_bake import LightmapError, baked_objects, extracted, file_path, write_files
+    from ..output.lightmap_bake import LightmapError, baked_objects, extracted
+    from ..output.lightmap_targets import file_path, write_files
     t0 = time.perf_counter()
     try:
         listed = None if args.objects is None else [n.strip() for n in args.objects.split(",") if n.strip()]
@@ -54,7 +55,7 @@ def cmd_lightmap(args) -> int:
     for message in warnings + result.warnings:
         print(f"warning: {message}", file=sys.stderr)
     print(f"{result.info.get('vpls', 0)} VPLs placed for {len(names)} objects in {result.seconds['place']:.2f} s")
-    write_files(args.output, result, settings.bake_pass)
+    write_files(args.output, result.images)
     for name in names:
         print(f"wrote {file_path(args.output, name)}: {settings.size}x{settings.size} {settings.bake_pass}, "
               f"{result.seconds[name]:.2f} s")

@@ -1,9 +1,10 @@
 """Lightmaps baked from Blender (``vpl_addon.lightmap``): the objects chosen and checked, the scene extracted with
-their UV map, the maps written as image files or into the active Image Texture node's image (as Cycles' bake
-writes them), and the operator of the render properties' Lightmaps panel, with progress and ESC.
+their UV map, the maps written to their target (``lightmap_targets``: image files, the active Image Texture node's
+image or the colour attribute, as Cycles' bake writes them), and the operator of the render properties' Lightmaps
+panel, with progress and ESC.
 
 The checks come before anything is baked, one message each naming the object (``LightmapError``), so that a bad
-object leaves every file and image as it was. The command line's ``lightmap`` (``cli.lightmap``) uses the same.
+object leaves every file, image and mesh as it was. The command line's ``lightmap`` (``cli.lightmap``) uses the same.
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from ...vpl_addon.core.camera import Camera, view_window
 from ...vpl_addon.lightmap import Cancelled, LightmapSettings, bake
 from ...vpl_addon.methods import MethodSettings
 from ..scene.extract import ACTIVE_UV, ExtractionError, camera_of, extract
+from .lightmap_targets import write_color_attribute, write_files, write_node_image
 
 
 class LightmapError(Exception):
@@ -61,26 +63,6 @@ def extracted(scene, names: list[str], uv_map: str | None):
     return built, warnings
 
 
-def file_path(folder: str, name: str) -> str:
-    """Where object ``name``'s map goes in ``folder``: ``<name>.exr``, path separators replaced."""
-    return os.path.join(folder, name.replace(os.sep, "_").replace("/", "_") + ".exr")
-
-
-def write_files(folder: str, result, bake_pass: str) -> list[str]:
-    """Each map of ``result`` (``LightmapResult``) as ``folder/<object>.exr`` (made atomically); their paths."""
-    try:  # OpenEXR is the command line's (requirements.txt), not a bundled wheel: the add-on registers without it
-        from ...vpl_addon.core.exr import write_passes
-    except ImportError as err:
-        raise LightmapError(f"writing image files needs the OpenEXR package ({err}); bake into the active Image "
-                            f"Texture node's image instead") from None
-    os.makedirs(folder, exist_ok=True)
-    paths = []
-    for name, image in result.images.items():
-        paths.append(file_path(folder, name))
-        write_passes(paths[-1], {bake_pass: image})
-    return paths
-
-
 def node_image(obj):
     """The image of the active Image Texture node of ``obj``'s active material, where Cycles' bake writes; a
     ``LightmapError`` naming the object without one."""
@@ -92,14 +74,43 @@ def node_image(obj):
     return node.image
 
 
-def write_node_image(image, map_: np.ndarray) -> None:
-    """``map_`` (size,size,4, row 0 at v = 1) into Blender ``image`` (scaled to its size first if it differs, as
-    its pixels run from the bottom row)."""
-    size = map_.shape[0]
-    if tuple(image.size) != (size, size):
-        image.scale(size, size)
-    image.pixels.foreach_set(np.ascontiguousarray(map_[::-1], np.float32).ravel())
-    image.update()
+def target_writer(scene, props, names: list[str]):
+    """A function that writes a bake's maps (object name -> image) into the panel's target and returns what it
+    wrote into, for the report; the target read and checked now, before the bake, and kept as it was then."""
+    uv_map = props.uv_map or None
+    if props.target == "IMAGE_NODE":
+        images = {name: node_image(scene.objects[name]) for name in names}
+
+        def write(maps):
+            for name, map_ in maps.items():
+                write_node_image(images[name], map_)
+            return "their images"
+    elif props.target == "COLOR_ATTRIBUTE":
+        objects = {name: scene.objects[name] for name in names}
+        _one_object_a_mesh(objects)
+
+        def write(maps):
+            written = {write_color_attribute(objects[name], map_, uv_map) for name, map_ in maps.items()}
+            return f"colour attribute {', '.join(sorted(written))}"
+    else:
+        folder = bpy.path.abspath(props.directory)
+        if not folder:
+            raise LightmapError("set the lightmap folder first")
+
+        def write(maps):
+            return os.path.dirname(write_files(folder, maps)[0])
+    return write
+
+
+def _one_object_a_mesh(objects: dict) -> None:
+    """A ``LightmapError`` naming two of ``objects`` that share a mesh, whose one colour attribute cannot hold the
+    light of both."""
+    seen = {}
+    for name, obj in objects.items():
+        other = seen.setdefault(obj.data.name, name)
+        if other != name:
+            raise LightmapError(f"objects {other!r} and {name!r} share mesh {obj.data.name!r}, whose colour "
+                                f"attribute holds one light: make them single user, or bake one of them")
 
 
 def lightmap_settings(props) -> LightmapSettings:
@@ -122,36 +133,28 @@ class VPLGI_OT_bake_lightmaps(bpy.types.Operator):
         return context.scene is not None and context.scene.render.engine == "VPL_GI"
 
     def _prepare(self, context):
-        """(engine scene, object names, settings, targets): everything read from Blender before baking."""
+        """(engine scene, object names, settings, the target's writer): everything read from Blender before
+        baking."""
         scene, props = context.scene, context.scene.vpl_gi_lightmap
         listed = [obj.name for obj in context.selected_objects] if props.objects == "SELECTED" else None
         if listed == []:
             raise LightmapError("no object is selected")
         names = baked_objects(scene, listed, props.uv_map or None)
-        targets = {name: node_image(scene.objects[name]) for name in names} if props.target == "IMAGE_NODE" else None
-        if props.target == "IMAGE_FILES" and not bpy.path.abspath(props.directory):
-            raise LightmapError("set the lightmap folder first")
+        write = target_writer(scene, props, names)
         built, warnings = extracted(scene, names, props.uv_map or None)
         for warning in warnings:
             self.report({"WARNING"}, warning)
-        return built, names, lightmap_settings(props), targets
+        return built, names, lightmap_settings(props), write
 
-    def _store(self, context, result, targets) -> None:
-        props = context.scene.vpl_gi_lightmap
+    def _store(self, result, write) -> None:
         for warning in result.warnings:
             self.report({"WARNING"}, warning)
-        if targets is None:
-            paths = write_files(bpy.path.abspath(props.directory), result, props.bake_pass)
-            self.report({"INFO"}, f"baked {len(paths)} lightmaps to {os.path.dirname(paths[0])}")
-            return
-        for name, image in targets.items():
-            write_node_image(image, result.images[name])
-        self.report({"INFO"}, f"baked {len(targets)} lightmaps into their images")
+        self.report({"INFO"}, f"baked {len(result.images)} lightmaps into {write(result.images)}")
 
     def execute(self, context):  # scripts and background mode: blocking
         try:
-            built, names, settings, targets = self._prepare(context)
-            self._store(context, bake(built, names, settings), targets)
+            built, names, settings, write = self._prepare(context)
+            self._store(bake(built, names, settings), write)
         except (LightmapError, OSError, ValueError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
@@ -159,7 +162,7 @@ class VPLGI_OT_bake_lightmaps(bpy.types.Operator):
 
     def invoke(self, context, event):  # the UI: the bake on a thread, progress on the cursor, ESC stops it
         try:
-            built, names, settings, self._targets = self._prepare(context)
+            built, names, settings, self._write = self._prepare(context)
         except (LightmapError, ValueError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}
@@ -201,7 +204,7 @@ class VPLGI_OT_bake_lightmaps(bpy.types.Operator):
             self.report({"ERROR"}, str(error))
             return {"CANCELLED"}
         try:
-            self._store(context, self._outcome["result"], self._targets)
+            self._store(self._outcome["result"], self._write)
         except (LightmapError, OSError) as err:
             self.report({"ERROR"}, str(err))
             return {"CANCELLED"}

@@ -231,7 +231,10 @@ class LightmapProperties(bpy.types.PropertyGroup):
         name="Target", default="IMAGE_FILES", description="Where the maps go",
         items=(("IMAGE_FILES", "Image Files", "One <object name>.exr per object in the folder"),
                ("IMAGE_NODE", "Active Image Node", "The image of the active Image Texture node of each object's "
-                                                   "active material, as Cycles' bake writes")))
+                                                   "active material, as Cycles' bake writes"),
+               ("COLOR_ATTRIBUTE", "Color Attribute", "Each mesh's active colour attribute, read from the baked "
+                                                      "map at its corners (a corner attribute \"Baked Light\" is made "
+                                                      "where a mesh has none), as Cycles' bake to Color Attributes")))
     directory: bpy.props.StringProperty(name="Folder", default="//lightmaps/", subtype="DIR_PATH",
                                         description="Folder of the image files")
 

@@ -1,5 +1,5 @@
 """Scenes for the lightmap tests, made with the real bpy module: the Cornell box UV-mapped by Smart UV Project
-(``example_blends/make_lightmapped.py``), and a floor with a UV map and no light."""
+(``example_blends/make_lightmapped.py``), and a floor with a UV map and no light; and a baked file read back."""
 from conftest import EXAMPLES
 
 
@@ -22,3 +22,12 @@ def dark_floor(bpy, path) -> str:
     bpy.context.scene.collection.objects.link(bpy.data.objects.new("Floor", mesh))
     bpy.ops.wm.save_as_mainfile(filepath=str(path))
     return str(path)
+
+
+def read_map(path):
+    """The (H,W,4) image of lightmap file ``path``, checked to be a plain RGBA image (channels R, G, B, A with no
+    layer or pass prefix, as game engines read it)."""
+    from vpl_addon.core.exr import read_passes
+    passes, _ = read_passes(str(path))
+    assert list(passes) == ["Combined"], list(passes)  # read_passes names a plain RGBA image Combined
+    return passes["Combined"]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from conftest import EXAMPLES, run_cli
-from lightmap_scenes import dark_floor, uv_cornell
+from lightmap_scenes import dark_floor, read_map, uv_cornell
 from test_cli import assert_one_line_error
 
 pytestmark = pytest.mark.blender
@@ -19,14 +19,13 @@ def box(ext, tmp_path_factory):
 
 
 def test_lightmap_writes_one_exr_per_object_with_its_time(box, tmp_path):
-    from vpl_addon.core.exr import read_passes
     code, stdout, stderr = run_cli("lightmap", box, "-o", tmp_path, "--objects", "Floor,TallBox", "--size", "32",
                                    "--uv-map", "Lightmap")
     assert code == 0, stderr
     for name in ("Floor", "TallBox"):
         line = next(l for l in stdout.splitlines() if l.startswith(f"wrote {tmp_path / name}.exr"))
         assert line.endswith(" s") and "32x32 Diffuse Indirect" in line
-        image = read_passes(str(tmp_path / f"{name}.exr"))[0]["Diffuse Indirect"]
+        image = read_map(tmp_path / f"{name}.exr")
         assert image.shape == (32, 32, 4) and np.isfinite(image).all() and (image >= 0).all()
         assert 0.0 < image[..., :3].mean() and (image[..., 3] <= 1.0).all()
     assert sorted(os.listdir(tmp_path)) == ["Floor.exr", "TallBox.exr"]  # no partial files left
@@ -67,10 +66,9 @@ def test_an_object_without_a_uv_map_is_named(tmp_path):
 
 def test_a_scene_without_lights_bakes_black_maps_and_says_so_once(ext, tmp_path):
     import bpy
-    from vpl_addon.core.exr import read_passes
     blend = dark_floor(bpy, tmp_path / "dark.blend")
     code, stdout, stderr = run_cli("lightmap", blend, "-o", tmp_path / "maps", "--size", "8", "--pass", "Diffuse")
     assert code == 0, stderr
     assert stderr.count("no lights") == 1
-    image = read_passes(str(tmp_path / "maps" / "Floor.exr"))[0]["Diffuse"]
+    image = read_map(tmp_path / "maps" / "Floor.exr")
     assert image[..., :3].max() == 0.0 and image[..., 3].min() == 1.0

@@ -1,10 +1,12 @@
 """The Bake Lightmaps panel and its operator with the real bpy module: the panel shows for the engine, the operator
-bakes into image files or into the active Image Texture node's image as Cycles' bake does, refuses an object without
-such an image before baking anything, and a bake stopped through its progress (ESC) raises and writes nothing."""
+bakes into image files (Blender's EXR writer, the values kept exactly), into the active Image Texture node's image
+or into the colour attribute as Cycles' bake does, refuses an object without such an image, or two objects of one
+mesh for a colour attribute, before baking anything, and a bake stopped through its progress (ESC) raises and
+writes nothing."""
 import numpy as np
 import pytest
 
-from lightmap_scenes import uv_cornell
+from lightmap_scenes import read_map, uv_cornell
 from test_panels import _shown
 
 pytestmark = pytest.mark.blender
@@ -63,14 +65,90 @@ def test_an_object_without_an_image_node_is_refused_before_anything_is_baked(box
 
 def test_the_operator_writes_one_file_per_mesh(box, tmp_path):
     import bpy
-    from vpl_gi.vpl_addon.core.exr import read_passes
     props = box.vpl_gi_lightmap
     props.objects, props.target, props.directory, props.bake_pass = "ALL", "IMAGE_FILES", str(tmp_path), "Diffuse"
     assert bpy.ops.vpl_gi.bake_lightmaps() == {"FINISHED"}
     meshes = sorted(obj.name for obj in box.objects if obj.type == "MESH")
     assert sorted(p.stem for p in tmp_path.glob("*.exr")) == meshes
-    image = read_passes(str(tmp_path / "Floor.exr"))[0]["Diffuse"]
+    image = read_map(tmp_path / "Floor.exr")
     assert image.shape == (16, 16, 4) and image[..., :3].mean() > 0.0
+    assert not list(tmp_path.glob(".partial-*"))
+
+
+def test_files_hold_the_maps_exactly_and_leave_the_scene_as_it_was(box, tmp_path):
+    """Blender's EXR writer through a scratch scene: 32-bit values above 1 and fractional alpha read back to the
+    bit, the user's scene's output format untouched, no scratch scene or image left behind."""
+    import bpy
+    from vpl_gi.operators.output.lightmap_targets import write_files
+    maps = {"A": np.random.default_rng(0).uniform(0.0, 40.0, (6, 5, 4)).astype(np.float32)}
+    maps["A"][..., 3] = np.linspace(0.0, 1.0, 30).reshape(6, 5)
+    box.render.image_settings.file_format = "PNG"
+    scenes, images = len(bpy.data.scenes), len(bpy.data.images)
+    assert write_files(str(tmp_path), maps) == [str(tmp_path / "A.exr")]
+    assert np.array_equal(read_map(tmp_path / "A.exr"), maps["A"])
+    assert box.render.image_settings.file_format == "PNG"
+    assert (len(bpy.data.scenes), len(bpy.data.images)) == (scenes, images)
+
+
+def _baked_corners(bpy, name, tmp_path):
+    """The Floor's corners' UVs, and its map baked into an image file by the same settings."""
+    props = bpy.context.scene.vpl_gi_lightmap
+    props.target, props.directory = "IMAGE_FILES", str(tmp_path)
+    assert bpy.ops.vpl_gi.bake_lightmaps() == {"FINISHED"}
+    mesh = bpy.data.objects[name].data
+    uv = np.empty(2 * len(mesh.loops), np.float32)
+    mesh.uv_layers["Lightmap"].data.foreach_get("uv", uv)
+    return uv.reshape(-1, 2), read_map(tmp_path / f"{name}.exr")
+
+
+def _colors(attribute):
+    values = np.empty(4 * len(attribute.data), np.float32)
+    attribute.data.foreach_get("color", values)
+    return values.reshape(-1, 4)
+
+
+def test_a_colour_attribute_holds_the_baked_map_at_each_corner(box, tmp_path):
+    """No colour attribute on the floor: one is made, per corner, holding the map (the same bake written to a file)
+    read bilinearly at each corner's UV, alpha 1."""
+    import bpy
+    from vpl_gi.vpl_addon.lightmap.lookup import lookup
+    _select(bpy, "Floor")
+    uv, map_ = _baked_corners(bpy, "Floor", tmp_path)
+    mesh = bpy.data.objects["Floor"].data
+    assert len(mesh.color_attributes) == 0
+    box.vpl_gi_lightmap.target = "COLOR_ATTRIBUTE"
+    assert bpy.ops.vpl_gi.bake_lightmaps() == {"FINISHED"}
+    attribute = mesh.color_attributes.active_color
+    assert (attribute.name, attribute.domain, attribute.data_type) == ("Baked Light", "CORNER", "FLOAT_COLOR")
+    colors = _colors(attribute)
+    assert np.allclose(colors[:, :3], lookup(map_, uv)[:, :3], rtol=1e-5, atol=1e-6)
+    assert colors[:, :3].mean() > 0.0 and (colors[:, 3] == 1.0).all()
+
+
+def test_a_per_vertex_colour_attribute_holds_the_mean_of_its_corners(box, tmp_path):
+    import bpy
+    from vpl_gi.vpl_addon.lightmap.lookup import lookup, per_vertex
+    _select(bpy, "TallBox")
+    uv, map_ = _baked_corners(bpy, "TallBox", tmp_path)
+    mesh = bpy.data.objects["TallBox"].data
+    mesh.color_attributes.active_color = mesh.color_attributes.new("Paint", "FLOAT_COLOR", "POINT")
+    box.vpl_gi_lightmap.target = "COLOR_ATTRIBUTE"
+    assert bpy.ops.vpl_gi.bake_lightmaps() == {"FINISHED"}
+    assert [a.name for a in mesh.color_attributes] == ["Paint"]
+    corner_vertex = np.array([loop.vertex_index for loop in mesh.loops])
+    want = per_vertex(lookup(map_, uv), corner_vertex, len(mesh.vertices))
+    assert np.allclose(_colors(mesh.color_attributes["Paint"])[:, :3], want[:, :3], rtol=1e-5, atol=1e-6)
+
+
+def test_two_objects_of_one_mesh_are_refused_a_colour_attribute(box):
+    import bpy
+    twin = bpy.data.objects["Floor"].copy()  # a linked duplicate: the same mesh
+    box.collection.objects.link(twin)
+    _select(bpy, "Floor", twin.name)
+    box.vpl_gi_lightmap.target = "COLOR_ATTRIBUTE"
+    with pytest.raises(RuntimeError, match=f"objects 'Floor' and '{twin.name}' share mesh"):
+        bpy.ops.vpl_gi.bake_lightmaps()
+    assert len(bpy.data.objects["Floor"].data.color_attributes) == 0
 
 
 def test_a_bake_stopped_by_its_progress_raises_and_reports_how_far_it_got(box):
