@@ -25,6 +25,9 @@ def add_parser(sub) -> None:
     lm.add_argument("--objects", help="comma-separated object names (default: every mesh that renders)")
     lm.add_argument("--uv-map", help="the UV map to bake into (default: each mesh's active render UV map)")
     lm.add_argument("--size", type=int, default=128, help="texels per side of each map (default 128)")
+    lm.add_argument("--texel-density", type=float,
+                    help="texels a metre of surface spans: each object's size from its area, the nearest power of "
+                         "two (in place of --size)")
     lm.add_argument("--pass", dest="bake_pass", default=BAKE_PASSES[0],
                     help=f"what to bake, as Cycles' bake types: {', '.join(BAKE_PASSES)} (default {BAKE_PASSES[0]})")
     lm.add_argument("--samples", type=int, default=4, help="sample points per texel (default 4)")
@@ -57,7 +60,8 @@ def cmd_lightmap(args) -> int:
     print(f"{result.info.get('vpls', 0)} VPLs placed for {len(names)} objects in {result.seconds['place']:.2f} s")
     write_files(args.output, result.images)
     for name in names:
-        print(f"wrote {file_path(args.output, name)}: {settings.size}x{settings.size} {settings.bake_pass}, "
+        size = len(result.images[name])
+        print(f"wrote {file_path(args.output, name)}: {size}x{size} {settings.bake_pass}, "
               f"{result.seconds[name]:.2f} s")
     print(f"lightmaps of {len(names)} objects in {time.perf_counter() - t0:.2f} s")
     return 0
@@ -72,6 +76,9 @@ def _settings(args) -> LightmapSettings:
     for flag, value, least in (("samples", args.samples, 1), ("vpls", args.vpls, 1), ("margin", args.margin, 0)):
         if value is not None and value < least:
             raise UserError(f"--{flag} {value}: must be at least {least}")
+    if args.texel_density is not None and not 0.0 < args.texel_density < float("inf"):
+        raise UserError(f"--texel-density {args.texel_density}: must be a positive number of texels a metre")
     placement = MethodSettings(vpls=args.vpls) if args.vpls else LightmapSettings().placement
-    return LightmapSettings(size=args.size, samples=args.samples, bake_pass=args.bake_pass, method=args.method,
-                            placement=placement, margin=args.margin, denoise=not args.no_denoise, seed=args.seed)
+    return LightmapSettings(size=args.size, texel_density=args.texel_density, samples=args.samples,
+                            bake_pass=args.bake_pass, method=args.method, placement=placement, margin=args.margin,
+                            denoise=not args.no_denoise, seed=args.seed)

@@ -115,7 +115,8 @@ def _one_object_a_mesh(objects: dict) -> None:
 
 def lightmap_settings(props) -> LightmapSettings:
     """The engine's settings from the panel's (``ui.properties.LightmapProperties``)."""
-    return LightmapSettings(size=props.size, samples=props.samples, bake_pass=props.bake_pass,
+    return LightmapSettings(size=props.size, texel_density=props.texel_density if props.sizing == "DENSITY" else None,
+                            samples=props.samples, bake_pass=props.bake_pass,
                             placement=MethodSettings(vpls=props.vpls), margin=props.margin, denoise=props.denoise)
 
 

@@ -183,7 +183,7 @@ class RENDER_PT_vpl_gi_performance(_VPLGIPanel, bpy.types.Panel):
 # the Bake Lightmaps panel's settings by group: what is baked, how well, where it goes
 LIGHTMAP_GROUPS = (
     ("Bake", ("objects", "uv_map", "bake_pass")),
-    ("Quality", ("size", "samples", "vpls", "margin", "denoise")),
+    ("Quality", ("sizing", "size", "samples", "vpls", "margin", "denoise")),
     ("Output", ("target",)),
 )
 
@@ -200,7 +200,7 @@ class RENDER_PT_vpl_gi_lightmaps(_VPLGIPanel, bpy.types.Panel):
         for heading, names in LIGHTMAP_GROUPS:
             group = self.layout.column(heading=heading)
             for name in names:
-                group.prop(props, name)
+                group.prop(props, "texel_density" if name == "size" and props.sizing == "DENSITY" else name)
         if props.target == "IMAGE_FILES":
             group.prop(props, "directory")
         self.layout.operator("vpl_gi.bake_lightmaps", icon="RENDER_STILL")

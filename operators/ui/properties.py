@@ -213,9 +213,17 @@ class LightmapProperties(bpy.types.PropertyGroup):
         items=(("SELECTED", "Selected", "The selected meshes"), ("ALL", "All", "Every mesh that renders")))
     uv_map: bpy.props.StringProperty(
         name="UV Map", default="", description="The UV map baked into (empty: each mesh's active render UV map)")
+    sizing: bpy.props.EnumProperty(
+        name="Resolution", default="SIZE", description="How each object's map size is chosen",
+        items=(("SIZE", "Size", "One size for every object's map"),
+               ("DENSITY", "Texel Density", "Each object's size from its surface area, so that a metre spans the "
+                                            "same number of texels on every object")))
     size: bpy.props.IntProperty(name="Size", default=_LIGHTMAP.size, min=1, max=16384,
                                 description="Texels per side of each object's map (an image node's own size "
                                             "is replaced)")
+    texel_density: bpy.props.FloatProperty(
+        name="Texels per Metre", default=32.0, min=0.01, soft_min=1.0, soft_max=1024.0,
+        description="Texels a metre of surface spans; each object's size is the nearest power of two (at least 4)")
     bake_pass: bpy.props.EnumProperty(
         name="Pass", default=_LIGHTMAP.bake_pass, description="What is baked, in the meaning of Cycles' bake types",
         items=tuple((name, name, f"Cycles' bake of {name}") for name in BAKE_PASSES))

@@ -43,10 +43,25 @@ def test_rebaking_some_objects_leaves_the_others_files_alone(box, tmp_path):
     assert (kept.stat().st_ino, kept.read_bytes()) == before
 
 
+def test_a_texel_density_sizes_each_map_by_its_object(box, tmp_path):
+    """At 40 texels a metre the floor (4 m^2 in 99 % of its map: 80 texels a side) gets 64 x 64 texels and the tall
+    box (3.6 m^2 in 61 %: 98) 128 x 128, each file as large as its line says; ``--size`` is not used."""
+    code, stdout, stderr = run_cli("lightmap", box, "-o", tmp_path, "--objects", "Floor,TallBox", "--size", "16",
+                                   "--texel-density", "40", "--uv-map", "Lightmap")
+    assert code == 0, stderr
+    sizes = {}
+    for name in ("Floor", "TallBox"):
+        line = next(l for l in stdout.splitlines() if l.startswith(f"wrote {tmp_path / name}.exr"))
+        sizes[name] = int(line.split(": ")[1].split("x")[0])
+        assert read_map(tmp_path / f"{name}.exr").shape == (sizes[name], sizes[name], 4)
+    assert sizes == {"Floor": 64, "TallBox": 128}
+
+
 @pytest.mark.parametrize("flags, words", [
     (("--size", "0"), ("--size 0", "between 1 and 16384")),
     (("--size", "16385"), ("--size 16385",)),
     (("--pass", "Glossy"), ("--pass", "Diffuse Indirect")),
+    (("--texel-density", "0"), ("--texel-density 0.0", "positive")),
     (("--objects", "Camera"), ("'Camera'", "not a mesh")),
     (("--objects", "Nothing"), ("no object 'Nothing'",)),
     (("--uv-map", "Nope"), ("no UV map 'Nope'", "Lightmap")),

@@ -166,3 +166,12 @@ def test_a_bake_stopped_by_its_progress_raises_and_reports_how_far_it_got(box):
     with pytest.raises(Cancelled):
         bake(built, names, lightmap_settings(box.vpl_gi_lightmap), progress)
     assert heard == [(1 / 3, "Floor")]
+
+
+def test_the_texel_density_replaces_the_size_when_chosen(box):
+    from vpl_gi.operators.output.lightmap_bake import lightmap_settings
+    props = box.vpl_gi_lightmap
+    props.texel_density = 12.5
+    assert lightmap_settings(props).texel_density is None and lightmap_settings(props).size == 16
+    props.sizing = "DENSITY"
+    assert lightmap_settings(props).texel_density == 12.5

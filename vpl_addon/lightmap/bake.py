@@ -33,6 +33,7 @@ from ..methods import METHODS, MethodContext, MethodSettings, place
 from .denoising import denoise_maps
 from .dilation import dilate
 from .seams import seam_pairs, stitch
+from .sizing import density_size
 from .texels import Texels, bake_uvs, rasterise
 from .unocclude import unocclude
 
@@ -49,6 +50,8 @@ class Cancelled(Exception):
 @dataclass
 class LightmapSettings:
     size: int = 128  # texels per side of each object's map
+    # texels a metre of surface (``sizing``): each object's size from its area, in place of ``size``; None: ``size``
+    texel_density: float | None = None
     samples: int = 4  # sample points per texel (direct light, coverage); a square number
     light_samples: int = 2  # shadow rays per sample for the direct light
     indirect_samples: int = 1  # samples per texel that gather the VPLs' light
@@ -69,6 +72,8 @@ class LightmapSettings:
     def __post_init__(self):
         if not 0 < self.size <= MAX_SIZE:
             raise ValueError(f"size must be between 1 and {MAX_SIZE} texels (got {self.size})")
+        if self.texel_density is not None and not 0.0 < self.texel_density < float("inf"):
+            raise ValueError(f"texel density must be a positive number of texels a metre (got {self.texel_density})")
         if self.samples < 1 or self.indirect_samples < 1 or self.texel_vpls < 1 or self.light_samples < 0:
             raise ValueError("samples, indirect samples and texel VPLs must be at least 1, light samples at least 0")
         if self.bake_pass not in BAKE_PASSES:
@@ -82,7 +87,8 @@ class LightmapSettings:
 
 @dataclass
 class LightmapResult:
-    images: dict[str, np.ndarray]  # object name -> (size,size,4) float32: the pass, alpha = coverage; row 0 at v = 1
+    # object name -> (size,size,4) float32, its own size: the pass, alpha = coverage; row 0 at v = 1
+    images: dict[str, np.ndarray]
     # object name -> seconds of its own work; "place" the VPLs' and "denoise" the denoiser's (shared)
     seconds: dict[str, float]
     warnings: list[str] = field(default_factory=list)
@@ -189,9 +195,11 @@ def _place(scene, settings: LightmapSettings, lit: _Lit, result: LightmapResult)
 
 def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> _Map:
     """One object's map before denoising: its texels, their light in the pass, the islands dilated."""
-    name, size = scene.object_names[index], settings.size
+    name = scene.object_names[index]
     triangles = np.nonzero(scene.object_id == index)[0]
     uv = bake_uvs(scene)[triangles]
+    size = settings.size if settings.texel_density is None else \
+        density_size(scene, triangles, uv, settings.texel_density, MAX_SIZE)
     if len(uv) and (uv.min() < 0.0 or uv.max() > 1.0):
         result.warnings.append(f"object {name!r}: its UV map reaches outside [0, 1]; the texels there are not baked")
     texels = rasterise(scene, triangles, size, settings.samples, np.random.default_rng([settings.seed, index]))
@@ -210,7 +218,7 @@ def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, resul
 def _light(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) -> np.ndarray:
     """(size*size,3) the pass at each texel: the albedo-weighted means of its samples' direct and gathered light
     (Cycles' division by the colour), the colour, or Combined."""
-    count = settings.size ** 2
+    count = texels.size ** 2
     albedo = surface.albedo
     color = P.divide(group_sum(texels.texel, albedo, count), np.bincount(texels.texel, minlength=count)[:, None])
     if settings.bake_pass == P.DIFFUSE_COLOR:
@@ -238,7 +246,7 @@ def _indirect(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) ->
     inside it). The whole set's size matters more than each texel's share: on the Cornell box at 128 x 128
     (``bench/lightmap.py``), the lit texels' rMAE is 0.069 with 4096 VPLs in 16 subsets, 0.055 with 16384 in 64 at
     the same time, 0.050 with 16384 in 16 at 3.5 times it."""
-    count = settings.size ** 2
+    count = texels.size ** 2
     rows = texels.first(settings.indirect_samples)
     points, at = surface.take(rows), texels.texel[rows]
     tile = max(1, int(round(np.sqrt(len(lit.vpls) / settings.texel_vpls))))
