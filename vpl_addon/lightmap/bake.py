@@ -4,8 +4,8 @@ passes of Cycles' bake types, OIDN's lightmap filter, the islands dilated, the s
 
 The VPLs are placed once for all the objects baked (``methods.place``), so every texel of every object is lit by
 the same set: the cost of placing them is paid once however many objects there are, where Cycles' bake traces its
-paths object by object. A method that places by the camera's view (bidir's camera points, smc's) places by the
-scene's camera, not by the texels; vbnl samples its lights per camera sample (its own gather) and is not offered.
+paths object by object. A method that places by the view (bidir's camera points, smc's) places by the baked texels
+in place of the pixels (``view``); vbnl samples its lights per camera sample (its own gather) and is not offered.
 
 The passes are those of Cycles' bake types (``BAKE_PASSES``), as Cycles divides its light by its colour when the
 Color toggle is off: ``Diffuse Indirect`` (type DIFFUSE, pass filter INDIRECT), ``Diffuse Direct`` (DIRECT),
@@ -36,6 +36,7 @@ from .seams import seam_pairs, stitch
 from .sizing import density_size
 from .texels import Texels, bake_uvs, rasterise
 from .unocclude import unocclude
+from .view import TexelView
 
 DIFFUSE = "Diffuse"
 BAKE_PASSES = (P.DIFFUSE_INDIRECT, P.DIFFUSE_DIRECT, DIFFUSE, P.DIFFUSE_COLOR, P.COMBINED)
@@ -123,7 +124,7 @@ def bake(scene, objects: list[str], settings: LightmapSettings,
             result.warnings.append("the scene has no lights: the lightmaps are black")
         t0 = time.perf_counter()
         if _needs_indirect(settings) and len(lit.lights) and len(scene.triangles):
-            _place(scene, settings, lit, result)
+            _place(scene, objects, settings, lit, result)
         result.seconds["place"] = time.perf_counter() - t0
         maps = {}
         for number, name in enumerate(objects):
@@ -179,13 +180,18 @@ def _bounces(scene, settings: LightmapSettings) -> int:
     return scene.max_bounces if settings.max_bounces is None else settings.max_bounces
 
 
-def _place(scene, settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> None:
-    """The VPLs of all the objects, once, into ``lit`` (checked finite and non-negative), their number in
-    ``result.info``."""
+def _place(scene, objects: list[str], settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> None:
+    """The VPLs of all the ``objects``, once, into ``lit`` (checked finite and non-negative), their number in
+    ``result.info``; a method that places by the view places by the objects' texels (``view.TexelView``)."""
     if _bounces(scene, settings) <= 0:
         return
+    view = None
+    if not METHODS[settings.method].view_independent:
+        parts = [_texels(scene, scene.object_names.index(name), settings)[0] for name in objects]
+        view = TexelView(scene, parts, lit.tracer, lit.face_normals)
     context = MethodContext(scene, lit.tracer, lit.lights, np.random.default_rng([settings.seed, 1 << 20]),
-                            _bounces(scene, settings), np.random.default_rng([settings.seed, 1 << 21]))
+                            _bounces(scene, settings), np.random.default_rng([settings.seed, 1 << 21]),
+                            view_points=view)
     lit.vpls, info = place(settings.method, context, settings.placement)
     P.check({"VPL intensity": lit.vpls.intensity}, f"lightmap, method {settings.method!r}, stage 'place'")
     lit.d_min = clamp_distance(scene.surface_area, settings.placement.vpls, settings.clamp)
@@ -196,13 +202,10 @@ def _place(scene, settings: LightmapSettings, lit: _Lit, result: LightmapResult)
 def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> _Map:
     """One object's map before denoising: its texels, their light in the pass, the islands dilated."""
     name = scene.object_names[index]
-    triangles = np.nonzero(scene.object_id == index)[0]
-    uv = bake_uvs(scene)[triangles]
-    size = settings.size if settings.texel_density is None else \
-        density_size(scene, triangles, uv, settings.texel_density, MAX_SIZE)
+    texels, triangles, uv = _texels(scene, index, settings)
+    size = texels.size
     if len(uv) and (uv.min() < 0.0 or uv.max() > 1.0):
         result.warnings.append(f"object {name!r}: its UV map reaches outside [0, 1]; the texels there are not baked")
-    texels = rasterise(scene, triangles, size, settings.samples, np.random.default_rng([settings.seed, index]))
     if texels.overlap > 0.01:
         result.warnings.append(f"object {name!r}: {texels.overlap:.0%} of its UV map overlaps itself; the "
                                f"overlapping texels hold the mean of the surfaces there")
@@ -213,6 +216,17 @@ def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, resul
     pairs = seam_pairs(scene.triangles[triangles], uv, size) if settings.stitch else np.zeros((0, 2), np.int64)
     return _Map(dilate(light.reshape(size, size, 3), coverage > 0.0, max(settings.margin, MIN_MARGIN)), coverage,
                 pairs)
+
+
+def _texels(scene, index: int, settings: LightmapSettings) -> tuple[Texels, np.ndarray, np.ndarray]:
+    """(object ``index``'s ``Texels`` in a map of ``settings.size`` or of its texel density's size, its triangles'
+    rows, their bake UVs); the same each time it is asked for (its seed is the object's)."""
+    triangles = np.nonzero(scene.object_id == index)[0]
+    uv = bake_uvs(scene)[triangles]
+    size = settings.size if settings.texel_density is None else \
+        density_size(scene, triangles, uv, settings.texel_density, MAX_SIZE)
+    return rasterise(scene, triangles, size, settings.samples, np.random.default_rng([settings.seed, index])), \
+        triangles, uv
 
 
 def _light(texels: Texels, surface, settings: LightmapSettings, lit: _Lit) -> np.ndarray:

@@ -12,6 +12,7 @@ Texel (x, y) is at u = (x + 0.5) / size, v = (y + 0.5) / size: y counts from v =
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,6 +54,10 @@ class Texels:
         e1, e2 = uv[:, 1] - uv[:, 0], uv[:, 2] - uv[:, 0]
         texels = 0.5 * np.abs(e1[:, 0] * e2[:, 1] - e1[:, 1] * e2[:, 0])
         return np.sqrt(area / np.maximum(texels, 1e-30))
+
+    def take(self, rows: np.ndarray) -> "Texels":
+        """The samples ``rows`` alone (each texel's coverage as before)."""
+        return dataclasses.replace(self, texel=self.texel[rows], prim=self.prim[rows], bary=self.bary[rows])
 
     def first(self, count: int) -> np.ndarray:
         """Rows of the first ``count`` samples of each texel."""

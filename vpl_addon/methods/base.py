@@ -33,6 +33,8 @@ from typing import Any, Callable
 
 import numpy as np
 
+from ..paths.camera_points import CameraPoints
+
 
 @dataclass
 class MethodContext:
@@ -48,6 +50,15 @@ class MethodContext:
     # in a sequence: the frame without the objects that move in it, as (scene, tracer), or None
     # (``SequenceState.still``); asked for by a method that finds what it draws from the view in it (vbnl)
     still: Callable[[], tuple | None] | None = None
+    # the points the view sees, (count, rng) -> ``CameraPoints``: None, the camera's pixels' (``seen``); a lightmap
+    # bake gives its texels' sample points, so that a method placing by the view places by what is baked
+    view_points: Callable[[int, np.random.Generator], CameraPoints] | None = None
+
+    def seen(self, count: int, rng: np.random.Generator) -> CameraPoints:
+        """``count`` points the view sees, drawn uniformly over it (bidir's camera points x_1, smc's X)."""
+        if self.view_points is not None:
+            return self.view_points(count, rng)
+        return CameraPoints.sample(self.scene, self.tracer, count, rng)
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,9 @@ def box_faces(lo, hi, inward=True):
     return {name: c if inward else c[::-1] for name, c in faces.items()}
 
 
-def scene_of(objects: dict, lights, albedo=0.5, island=(0.0, 1.0)) -> Scene:
-    """A scene of the quads ``objects`` (name -> corners), one object each, of one grey material."""
+def scene_of(objects: dict, lights, albedo=0.5, island=(0.0, 1.0), camera=None) -> Scene:
+    """A scene of the quads ``objects`` (name -> corners), one object each, of one grey material; ``camera`` (None:
+    an orthographic one at the origin looking down)."""
     tris, uvs, ids = [], [], []
     for number, corners in enumerate(objects.values()):
         t, uv = quad(corners, island)
@@ -39,6 +40,6 @@ def scene_of(objects: dict, lights, albedo=0.5, island=(0.0, 1.0)) -> Scene:
         uvs.append(uv)
         ids += [number, number]
     materials = Materials.make([{"name": "grey", "base_color": (albedo,) * 3}])
-    cam = Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=True, ortho_scale=1.0), orthographic=True)
+    cam = camera or Camera(np.eye(4), 8, 8, view_window(8, 8, orthographic=True, ortho_scale=1.0), orthographic=True)
     return Scene.build(np.concatenate(tris), materials, list(lights), cam, uvs=np.concatenate(uvs),
                        material=np.ones(len(ids)), object_id=ids, object_names=list(objects))

@@ -1,9 +1,11 @@
 """The lightmap bake without Blender: finite, non-negative texels in every pass, no light through a closed wall,
-the ring around each island filled, the UV map's coverage, the VPLs shared by all objects."""
+the ring around each island filled, the UV map's coverage, the VPLs shared by all objects, placed by the texels for
+methods that place by the view."""
 import numpy as np
 import pytest
 
 from rooms import box_faces, scene_of
+from vpl_addon.core.camera import Camera, view_window
 from vpl_addon.lightmap import BAKE_PASSES, LightmapSettings, bake
 from vpl_addon.lightmap.dilation import dilate
 from vpl_addon.lightmap.texels import rasterise
@@ -175,3 +177,19 @@ def test_nan_in_the_bake_uv_map_is_sanitised_and_the_maps_stay_finite(lit_room):
     assert np.isfinite(scene.bake_uvs).all()
     for image in bake(scene, scene.object_names, LightmapSettings(size=8)).images.values():
         assert np.isfinite(image).all() and (image >= 0.0).all()
+
+
+@pytest.mark.parametrize("method", ["bidir", "smc"])
+def test_a_method_that_places_by_the_view_places_by_the_texels(method):
+    """The scene's camera looks away from the room, so its pixels see nothing: bidir's camera points and smc's
+    visible points come from the baked texels instead (``lightmap.view``), and the floor's indirect light agrees
+    with ir's, which ignores the view, in the mean."""
+    away = np.eye(4)
+    away[:3, 3] = (50.0, 50.0, 50.0)
+    camera = Camera(away, 8, 8, view_window(8, 8, orthographic=True, ortho_scale=1.0), orthographic=True)
+    room = scene_of(box_faces(*ROOM), [PointLight("lamp", [0.3, 0.2, 1.5], [100.0] * 3)], camera=camera)
+    means = {name: bake(room, ["floor", "ceiling"], LightmapSettings(size=16, method=name, denoise=False)).images
+             for name in ("ir", method)}
+    for face in ("floor", "ceiling"):
+        ir, other = (means[name][face][..., :3].mean() for name in ("ir", method))
+        assert ir > 0.0 and abs(other / ir - 1.0) < 0.15, (face, ir, other)

@@ -23,7 +23,6 @@ import numpy as np
 
 from ...gather.summing import clamp_distance
 from ...gather.virtual_lights import REVERSE, VirtualLights
-from ...paths.camera_points import CameraPoints
 from ...paths.light_paths import trace_until
 from ...sequence.path_verification import PlacedFromPaths, follow
 from ..base import Method
@@ -63,7 +62,7 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     scene, tracer, rng = context.scene, context.tracer, context.rng
     kept_count = max(1, int(settings.vpls))
     total = max(2, int(round(kept_count * b.ratio)))
-    pool = CameraPoints.sample(scene, tracer, b.camera_points, rng)
+    pool = context.seen(b.camera_points, rng)
     d_min = clamp_distance(scene.surface_area, kept_count, b.clamp)
 
     light_prob = camera_light_distribution(context.lights, pool, tracer, rng, floor=b.light_floor)
@@ -74,9 +73,9 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
         paths = follow(state.paths, context, motion, total // 2, settings.path_reuse, settings.path_threshold,
                        light_prob)
         standard = state.paths.lights()
-    reverse = reverse_vpls.place(scene, tracer, context.lights, pool, total - total // 2, standard, rng,
-                                 context.max_bounces, b.density_paths_coarse, b.direct_samples, b.standard_samples,
-                                 d_min)
+    reverse = reverse_vpls.place(scene, tracer, context.lights, pool, context.seen, total - total // 2, standard,
+                                 rng, context.max_bounces, b.density_paths_coarse, b.direct_samples,
+                                 b.standard_samples, d_min)
     both = VirtualLights.concat([standard.scaled(0.5), reverse.vpls.scaled(0.5)])
     power = camera_power(both, pool, b.power_paths, tracer, d_min, rng)
     index, weight = resample(power, kept_count, b.cdf_floor, rng)

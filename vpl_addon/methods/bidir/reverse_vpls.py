@@ -81,16 +81,17 @@ class ReverseSet:
         return self.density[rows] / np.maximum(fine, 1e-300)
 
 
-def place(scene, tracer, lights, camera_points, target: int, standard: VirtualLights, rng, max_bounces: int,
+def place(scene, tracer, lights, camera_points, seen, target: int, standard: VirtualLights, rng, max_bounces: int,
           density_paths: int, direct_samples: int, standard_samples: int, d_min: float) -> ReverseSet:
-    """About ``target`` reverse VPLs from length-2 camera paths."""
+    """About ``target`` reverse VPLs from length-2 camera paths whose x_1 are drawn by ``seen(count, rng)``
+    (``MethodContext.seen``), their density estimated with the pool ``camera_points``."""
     empty = ReverseSet(VirtualLights.empty(), np.zeros((0, 3)), (np.zeros((0, 3)),) * 3, np.zeros(0), 0)
     if target <= 0 or max_bounces <= 0:
         return empty
     parts, attempts, found = [], 0, 0
     while found < target and attempts < 64 * target + 1024:
         count = max(64, int((target - found) / max(found / attempts, 0.05)) if attempts else target)
-        pts = CameraPoints.sample(scene, tracer, count, rng)
+        pts = seen(count, rng)
         attempts += count
         s1 = pts.surface
         s2, src, _, _ = diffuse_bounce(scene, tracer, s1, rng)

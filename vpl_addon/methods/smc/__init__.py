@@ -3,7 +3,7 @@ to frame, of which at most M_max = 16 VPLs move per frame, driven toward VPLs of
 (eq. 4, 6), i.e. placed in proportion to their radiosity on the surfaces the camera sees indirectly.
 
 One frame is Algorithm 1 (sec. 3.2):
-  3. X: points the camera sees directly (``paths.camera_points.CameraPoints``).
+  3. X: points the camera sees directly (``MethodContext.seen``; a lightmap bake's texels).
   4. INVALID: VPLs whose indirect visibility cannot be verified by mail-boxing (``indirect_visibility``, V = 16,
      two iterations); also VPLs on objects that moved.
   5-6. Candidates: rays in cosine-weighted random directions from X hit 16 I points, resampled 16:1 without
@@ -38,7 +38,6 @@ from scipy.spatial import cKDTree
 from ...core.color import luminance
 from ...gather.virtual_lights import STANDARD, VirtualLights
 from ...materials.surface import Surface, diffuse_bounce
-from ...paths.camera_points import CameraPoints
 from ...sequence.persisted import record
 from ..base import Method, option
 from .indirect_visibility import validate
@@ -190,7 +189,7 @@ def iterate(state: SMCState, context, settings, motion=None, steps: int = 1) -> 
     budget = max(1, int(settings.vpls))
     scene, rng = context.scene, context.rng
     extent = float(np.linalg.norm(np.subtract(*scene.bounds)))
-    points = CameraPoints.sample(scene, context.tracer, s.camera_points, rng).surface  # X
+    points = context.seen(s.camera_points, rng).surface  # X
     if len(points) == 0:
         return
     valid = _verified(state, context, s, points, motion, extent)
