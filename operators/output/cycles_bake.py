@@ -21,12 +21,15 @@ CYCLES_BAKES = {  # our pass -> (Cycles' bake type, its pass filter)
 
 
 def cycles_lightmap(bpy, obj, size: int, samples: int, bake_pass: str = "Diffuse Indirect",
-                    uv_map: str | None = None, margin: int = 16) -> np.ndarray:
+                    uv_map: str | None = None, margin: int = 16, seed: int | None = None) -> np.ndarray:
     """(size,size,3) float32 the lightmap of ``obj`` baked by Cycles at ``samples`` samples per texel into UV map
-    ``uv_map`` (None: the active one), rows top first (v = 1 at row 0) as our maps. The image node it bakes
-    through is added to each of the object's materials and removed again, with its image."""
+    ``uv_map`` (None: the active one) with Cycles' ``seed`` (None: the references'), rows top first (v = 1 at row
+    0) as our maps. The image node it bakes through is added to each of the object's materials and removed again,
+    with its image."""
     scene = bpy.context.scene
     configure_cycles(scene, samples)
+    if seed is not None:
+        scene.cycles.seed = seed
     bounces = min(scene.vpl_gi.max_bounces, scene.vpl_gi.diffuse_bounces) if hasattr(scene, "vpl_gi") else None
     if bounces is not None:
         scene.cycles.max_bounces = scene.cycles.diffuse_bounces = bounces
