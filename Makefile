@@ -49,7 +49,7 @@ PYCPARSER := wheels/pycparser-$(PYCPARSER_VERSION)-py3-none-any.whl
 WHEELS := $(WHEELS_LINUX_X64) $(WHEELS_WINDOWS_X64) $(WHEELS_MACOS_ARM64) $(WHEELS_MACOS_X64) $(PYCPARSER)
 DEMO_SCENE := example_blends/cornell_area.blend
 
-.PHONY: venv test test-all test-blender demo wheels print-wheels extension examples scenes bench docs gallery clean
+.PHONY: venv test test-all test-blender demo wheels print-wheels extension examples scenes bench bench-report docs gallery clean
 
 venv: $(STAMP)
 
@@ -147,10 +147,15 @@ bench: $(STAMP)
 	$(BIN)/python bench/tracer_throughput.py
 	$(BIN)/python -m vpl_addon bench example_blends/*.blend --scaling --out $(BENCH_OUT) --overwrite
 
+# The benchmarks page (docs/benchmarks.md and its plots) from the committed results in bench/results/.
+bench-report: $(STAMP)
+	$(BIN)/python bench/report.py
+
 # The documentation: the pages made from the code (docs/generate.py: the command line's reference, the methods),
 # then the site in strict mode (a broken link or a page left out of the nav fails), into site/.
 docs: $(STAMP)
 	$(BIN)/python docs/generate.py
+	$(BIN)/python bench/report.py
 	$(BIN)/python -m mkdocs build --strict --quiet
 
 # The gallery's pictures (docs/images/): the defaults against Cycles and Cycles + OIDN at equal time, each scene at its

@@ -4,7 +4,7 @@ by OIDN's lightmap filter, all against a Cycles bake at many samples, on the Cor
 Smart UV Project (``example_blends/make_lightmapped.py``), in one run.
 
     .venv/bin/python bench/lightmap.py [--size 128] [--reference-samples 4096] [--cycles 4,16,64]
-        [--vpls 4096,16384,65536] [--twin] [--json bench/results/lightmap.json]
+        [--vpls 4096,16384,65536] [--twin] [--json bench/results/lightmap/comparison.json]
     .venv/bin/python bench/lightmap.py --scaling 10,100 [--texels 163840]
 
 ``--scaling`` bakes a room of N tiles, each its own object, at the same total of texels for each N (no Blender):

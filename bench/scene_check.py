@@ -3,7 +3,7 @@ modest sample count, mean brightness ratio to the shipped reference (linear EXR 
 filtered down to our resolution), and a side-by-side PNG (ours | reference, the same exposure and sRGB curve).
 
     .venv/bin/python bench/scene_check.py [NAME ...] [--scenes scenes] [--source ../shared/scenes] [--samples 256]
-        [--out bench/results/scenes]
+        [--out bench/results/scene_check]
 
 Scenes without a shipped reference are rendered too (their PNG shows ours alone), so framing can be checked by eye;
 ``--exr NAME=PATH`` takes an existing Cycles EXR of a scene (e.g. its converged reference) instead of rendering.
@@ -75,7 +75,7 @@ def main(argv=None) -> int:
     p.add_argument("--scenes", default=os.path.join(ROOT, "scenes"))
     p.add_argument("--source", default=os.path.join(ROOT, "..", "shared", "scenes"))
     p.add_argument("--samples", type=int, default=256)
-    p.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "scenes"))
+    p.add_argument("--out", default=os.path.join(ROOT, "bench", "results", "scene_check"))
     p.add_argument("--exr", action="append", default=[], metavar="NAME=PATH",
                    help="use this Cycles EXR for scene NAME instead of rendering it")
     args = p.parse_args(argv)

@@ -126,7 +126,7 @@ def frosted_blend(tmp_path, roughness: float, colour=(1.0, 1.0, 1.0)):
     """Glowing stripes 0.4 m wide, 0.4 m apart, on a black backdrop 3 m ahead, seen through a 4 cm glass slab of
     ``roughness`` and Base Color ``colour`` 2 m in front of them that fills the view. The glass is single-scattering
     GGX: the engine's model; Cycles' default Multiscatter GGX passes 3.4 % more light here (its energy compensation,
-    which the engine does not add to refraction: bench/README.md, twenty-sixth session)."""
+    which the engine does not add to refraction)."""
     import bpy
     bpy.ops.wm.read_factory_settings(use_empty=True)
     scene = bpy.context.scene

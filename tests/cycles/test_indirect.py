@@ -24,7 +24,7 @@ def render_and_compare(tmp_path, scene, reference, *flags):
 
 def test_cornell_box_every_method_at_default_settings(tmp_path):
     """The default method (vbnl) within 0.05 rMAE and 3 % of Cycles' brightness, and more accurate than bidir
-    at their defaults (the equal-time comparison is the benchmark's: bench/README.md)."""
+    at their defaults (the equal-time comparison is the benchmark's: docs/benchmarks.md)."""
     vbnl, _ = render_and_compare(tmp_path, "cornell_area", "cornell_area.exr")
     bidir, _ = render_and_compare(tmp_path, "cornell_area", "cornell_area.exr", "--method", "bidir")
     ir, _ = render_and_compare(tmp_path, "cornell_area", "cornell_area.exr", "--method", "ir")

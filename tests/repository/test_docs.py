@@ -1,4 +1,4 @@
-"""The documentation: the pages made from the code are what the code gives now, the site builds in MkDocs' strict
+"""The documentation: the pages made from the code and from the benchmarks' results are what they give now, the site builds in MkDocs' strict
 mode (a broken link or a page left out of the navigation fails it), every picture and file the pages show exists,
 README.md stays short, and its quick start runs as written."""
 import json
@@ -28,6 +28,11 @@ def test_the_generated_pages_are_what_the_code_gives():
     assert proc.returncode == 0, proc.stderr
 
 
+def test_the_benchmarks_page_is_what_the_results_give():
+    proc = _run([sys.executable, "bench/report.py", "--check"])
+    assert proc.returncode == 0, proc.stderr
+
+
 def test_the_cli_reference_holds_every_commands_help():
     page = (ROOT / "docs" / "reference" / "cli.md").read_text()
     proc = _run([sys.executable, "-m", "vpl_addon", "lightmap", "--help"], timeout=120)
@@ -43,7 +48,7 @@ def test_the_site_builds_in_strict_mode(tmp_path):
     assert (tmp_path / "site" / "images" / "living_room.png").is_file()
 
 
-@pytest.mark.parametrize("page", ["README.md", "CHANGELOG.md",
+@pytest.mark.parametrize("page", ["README.md", "CHANGELOG.md", "bench/README.md",
                                   *sorted(str(p.relative_to(ROOT)) for p in (ROOT / "docs").rglob("*.md"))])
 def test_every_file_a_page_links_or_shows_exists(page):
     path = ROOT / page

@@ -115,9 +115,9 @@ def test_without_oidn_one_warning_and_the_picture_as_rendered(monkeypatch):
 
 
 def test_a_denoised_render_leaves_the_indirect_light_unfiltered_for_oidn(monkeypatch):
-    """Before OIDN the gather's filter costs more than it removes (bench/README.md, "Where the floor was"): a denoised
-    render's indirect light is the unfiltered one; where OIDN cannot load, the picture stays as rendered, so it is
-    filtered as without denoising."""
+    """Before OIDN the gather's filter costs more than it removes (docs/decisions/0002-filter-before-oidn.md): a
+    denoised render's indirect light is the unfiltered one; where OIDN cannot load, the picture stays as rendered, so
+    it is filtered as without denoising."""
     from test_sequence import lamp_scene
     from vpl_addon.gather.summing import GatherSettings
     from vpl_addon.methods import MethodSettings

@@ -572,7 +572,7 @@ def test_lights_are_placed_where_they_were_when_the_view_is_the_same():
     every frame of a sequence) and only its photons from the frame's (``rng``): two frames with their own numbers
     and the camera's place their lights at the same points with the same catchments, and only the lights' light
     differs; with the frame's numbers for everything the points differ (a new draw in every frame: one of the three
-    causes of a denoised sequence's flicker, bench/README.md "Steady draws")."""
+    causes of a denoised sequence's flicker)."""
     scene = lit_floor(PointLight("lamp", [0.0, 0.0, 1.0], [100.0] * 3), max_bounces=2)
     tracer = Tracer(scene.triangles)
     settings = MethodSettings(vpls=64, vbnl=VBNLSettings(photons=8192))
