@@ -10,6 +10,7 @@ from vpl_addon.lightmap import BAKE_PASSES, LightmapSettings, bake
 from vpl_addon.lightmap.dilation import dilate
 from vpl_addon.lightmap.texels import rasterise
 from vpl_addon.lights import PointLight
+from vpl_addon.methods import MethodSettings
 
 ROOM = ((-1.0, -1.0, 0.0), (1.0, 1.0, 2.0))
 
@@ -188,7 +189,8 @@ def test_a_method_that_places_by_the_view_places_by_the_texels(method):
     away[:3, 3] = (50.0, 50.0, 50.0)
     camera = Camera(away, 8, 8, view_window(8, 8, orthographic=True, ortho_scale=1.0), orthographic=True)
     room = scene_of(box_faces(*ROOM), [PointLight("lamp", [0.3, 0.2, 1.5], [100.0] * 3)], camera=camera)
-    means = {name: bake(room, ["floor", "ceiling"], LightmapSettings(size=16, method=name, denoise=False)).images
+    means = {name: bake(room, ["floor", "ceiling"], LightmapSettings(size=16, method=name, denoise=False,
+                                                                     placement=MethodSettings(vpls=2048))).images
              for name in ("ir", method)}
     for face in ("floor", "ceiling"):
         ir, other = (means[name][face][..., :3].mean() for name in ("ir", method))
