@@ -158,11 +158,17 @@ docs: $(STAMP)
 	$(BIN)/python bench/report.py
 	$(BIN)/python -m mkdocs build --strict --quiet
 
-# The gallery's pictures (docs/images/): the defaults against Cycles and Cycles + OIDN at equal time, each scene at its
-# own resolution; the converted living room needs `make scenes` first. Minutes a scene (a 1024-spp reference, cached).
-GALLERY ?= scenes/living_room.blend example_blends/cornell_area.blend
+# The gallery's pictures (docs/images/, then docs/gallery.md by bench/report.py): the defaults against Cycles and
+# Cycles + OIDN at equal time. The example stills and the living room at their own resolution, cornell_pbr and the
+# other converted scenes (`make scenes` first) at half, where their references are; minutes a scene (a 1024-spp
+# reference rendered and cached where none is committed).
+GALLERY_FULL ?= $(addprefix example_blends/,cornell_area.blend cornell_point.blend cornell_sun.blend \
+	cornell_textured.blend cornell_metal.blend corridor.blend) $(wildcard scenes/living_room.blend)
+GALLERY_HALF ?= example_blends/cornell_pbr.blend $(filter-out scenes/living_room.blend,$(wildcard scenes/*.blend))
 gallery: $(STAMP)
-	$(BIN)/python bench/gallery.py $(GALLERY)
+	$(BIN)/python bench/gallery.py $(GALLERY_FULL)
+	$(BIN)/python bench/gallery.py $(GALLERY_HALF) --percentage 50
+	$(BIN)/python bench/report.py
 
 clean:
 	rm -rf out dist build site .pytest_cache

@@ -1,9 +1,10 @@
-"""The benchmarks page of the documentation made from the committed results: ``docs/benchmarks.md`` from the folders
-of ``bench/results/``, each named by what it measures and holding the command that measured it (``command.txt``),
-its figures (the bench's ``summary.txt``, CSV or JSON) and its plots, which are copied to ``docs/images/bench/``.
+"""The documentation's pages made from measurements: ``docs/benchmarks.md`` from the folders of ``bench/results/``,
+each named by what it measures and holding the command that measured it (``command.txt``), its figures (the bench's
+``summary.txt``, CSV or JSON) and its plots, which are copied to ``docs/images/bench/``; and ``docs/gallery.md``
+from the pictures ``bench/gallery.py`` wrote (``docs/images/<scene>.png`` and its ``.json``).
 
-    .venv/bin/python bench/report.py          # rewrite docs/benchmarks.md and its plots
-    .venv/bin/python bench/report.py --check  # exit 1 if the page is not what the results give
+    .venv/bin/python bench/report.py          # rewrite both pages and the plots
+    .venv/bin/python bench/report.py --check  # exit 1 if a page is not what the results give
 
 A new measurement is a folder here and an entry of ``SECTIONS``; nothing on the page is typed by hand.
 """
@@ -22,7 +23,10 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "bench" / "results"
 PAGE = ROOT / "docs" / "benchmarks.md"
-PLOTS = ROOT / "docs" / "images" / "bench"
+GALLERY = ROOT / "docs" / "gallery.md"
+PICTURES = ROOT / "docs" / "images"
+PLOTS = PICTURES / "bench"
+FIRST = ("living_room", "cornell_area")  # the gallery's order: these, then the rest by name
 
 # a line of the bench's summary: "  equal time 10 s: cycles+oidn rMAE 0.0151 / vbnl+oidn 0.0125 = 1.21x"
 EQUAL_TIME = re.compile(r"equal time (\d+) s: \S+ (?:block |clean )?\S+ [\d.]+ / \S+ [\d.]+ = ([\d.]+)x")
@@ -154,6 +158,24 @@ def page() -> str:
     return "\n".join(lines)
 
 
+def gallery() -> str:
+    """Each picture of ``bench/gallery.py`` with its scene, size, reference and figures."""
+    figures = {path.stem: json.loads(path.read_text()) for path in PICTURES.glob("*.json")}
+    order = [name for name in FIRST if name in figures] + sorted(set(figures) - set(FIRST))
+    lines = ["# Gallery", "", "<!-- made by bench/report.py from docs/images/*.json: run bench/gallery.py -->", "",
+             "Each scene rendered with the add-on's defaults (denoised), by Cycles at the samples whose time comes "
+             "nearest ours, and by Cycles + OpenImageDenoise at those samples, on the project's 2-core machine; "
+             "under each its wall time and the rMAE of Combined against a converged Cycles render. Made by "
+             "`make gallery` (`bench/gallery.py`).", ""]
+    for name in order:
+        f = figures[name]
+        width, height = f["size"]
+        cells = "; ".join(f"{row['label']} {row['seconds']:.1f} s, rMAE {row['rmae']:.3f}" for row in f["rows"])
+        lines += [f"## {name}", "", f"![{name}](images/{name}.png)", "",
+                  f"{width} x {height}, against {f['reference']}: {cells}.", ""]
+    return "\n".join(lines)
+
+
 def plots() -> dict[pathlib.Path, pathlib.Path]:
     """Each result plot the page shows -> where the documentation keeps its copy."""
     return {plot: PLOTS / plot.parent.name / plot.name for name, _, _ in SECTIONS
@@ -164,19 +186,20 @@ def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--check", action="store_true", help="exit 1 if the page or a plot is not what the results give")
     args = ap.parse_args()
-    text, copies = page(), plots()
+    pages, copies = {PAGE: page(), GALLERY: gallery()}, plots()
     if args.check:
-        stale = [str(PAGE)] if not PAGE.is_file() or PAGE.read_text() != text else []
+        stale = [str(path) for path, text in pages.items() if not path.is_file() or path.read_text() != text]
         stale += [str(copy) for source, copy in copies.items()
                   if not copy.is_file() or copy.read_bytes() != source.read_bytes()]
         for path in stale:
-            print(f"{path} is not what bench/results/ gives: run .venv/bin/python bench/report.py", file=sys.stderr)
+            print(f"{path} is not what the measurements give: run .venv/bin/python bench/report.py", file=sys.stderr)
         return 1 if stale else 0
     shutil.rmtree(PLOTS, ignore_errors=True)
     for source, copy in copies.items():
         copy.parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(source, copy)
-    PAGE.write_text(text)
+    for path, text in pages.items():
+        path.write_text(text)
     return 0
 
 
