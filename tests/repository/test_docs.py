@@ -88,3 +88,14 @@ def test_the_readme_quick_start_runs_as_written(tmp_path):
     assert frames == [f"frame_{f:04d}.exr" for f in (1, 2, 3)]
     assert (tmp_path / "out" / "lightmaps" / "Floor.exr").is_file()
     assert json.loads(outputs[-1])["Combined"]["rmae"] < 0.1  # our default render against Cycles' 4096 spp
+
+
+def test_make_docs_regenerates_nothing_and_builds_the_site():
+    """The README's ``make docs``: the generated pages come out as committed, and the site is built (``site/``)."""
+    pages = [ROOT / "docs" / name for name in ("reference/cli.md", "reference/methods.md", "benchmarks.md",
+                                                 "gallery.md")]
+    before = [page.read_bytes() for page in pages]
+    proc = _run(["make", "-s", "--no-print-directory", "docs"], timeout=300)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert [page.read_bytes() for page in pages] == before
+    assert (ROOT / "site" / "index.html").is_file()
