@@ -73,7 +73,7 @@ def test_the_readme_quick_start_runs_as_written(tmp_path):
     beside the examples), the checkout's interpreter in place of .venv/bin/python."""
     shutil.copytree(ROOT / "example_blends", tmp_path / "example_blends")
     (tmp_path / "tests" / "references").mkdir(parents=True)
-    shutil.copy(ROOT / "tests" / "references" / "cornell_area.exr", tmp_path / "tests" / "references")
+    shutil.copy(ROOT / "tests" / "references" / "cornell_area_25pct.exr", tmp_path / "tests" / "references")
     lines = _quick_start()
     assert len(lines) == 5
     outputs = []
@@ -87,7 +87,7 @@ def test_the_readme_quick_start_runs_as_written(tmp_path):
     frames = sorted(name for name in os.listdir(tmp_path / "out" / "sequence") if name.startswith("frame_"))
     assert frames == [f"frame_{f:04d}.exr" for f in (1, 2, 3)]
     assert (tmp_path / "out" / "lightmaps" / "Floor.exr").is_file()
-    assert json.loads(outputs[-1])["Combined"]["rmae"] < 0.1  # our default render against Cycles' 4096 spp
+    assert json.loads(outputs[-1])["Combined"]["rmae"] < 0.1  # our default render against Cycles' converged one
 
 
 def test_make_docs_regenerates_nothing_and_builds_the_site():
