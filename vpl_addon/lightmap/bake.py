@@ -99,13 +99,16 @@ class LightmapResult:
 @dataclass
 class _Lit:
     """What lights the texels: the tracer, the lights, the placed VPLs and the gather's clamp and VPL order; and
-    the scene's face normals, which ``unocclude`` reads for every object (made once: O(scene) each time)."""
+    the scene's face normals, which ``unocclude`` reads for every object (made once: O(scene) each time). ``texels``
+    holds the objects' texels that placing by the view rasterised already (object index -> ``_texels``), so that
+    their bake takes them instead of rasterising again."""
     tracer: Tracer
     lights: LightSet
     face_normals: np.ndarray
     vpls: object = None
     d_min: float = 0.0
     permutation: np.ndarray | None = None
+    texels: dict = field(default_factory=dict)
 
 
 def bake(scene, objects: list[str], settings: LightmapSettings,
@@ -187,8 +190,8 @@ def _place(scene, objects: list[str], settings: LightmapSettings, lit: _Lit, res
         return
     view = None
     if not METHODS[settings.method].view_independent:
-        parts = [_texels(scene, scene.object_names.index(name), settings)[0] for name in objects]
-        view = TexelView(scene, parts, lit.tracer, lit.face_normals)
+        lit.texels = {index: _texels(scene, index, settings) for index in map(scene.object_names.index, objects)}
+        view = TexelView(scene, [texels for texels, _, _ in lit.texels.values()], lit.tracer, lit.face_normals)
     context = MethodContext(scene, lit.tracer, lit.lights, np.random.default_rng([settings.seed, 1 << 20]),
                             _bounces(scene, settings), np.random.default_rng([settings.seed, 1 << 21]),
                             view_points=view)
@@ -202,7 +205,7 @@ def _place(scene, objects: list[str], settings: LightmapSettings, lit: _Lit, res
 def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, result: LightmapResult) -> _Map:
     """One object's map before denoising: its texels, their light in the pass, the islands dilated."""
     name = scene.object_names[index]
-    texels, triangles, uv = _texels(scene, index, settings)
+    texels, triangles, uv = lit.texels.pop(index, None) or _texels(scene, index, settings)
     size = texels.size
     if len(uv) and (uv.min() < 0.0 or uv.max() > 1.0):
         result.warnings.append(f"object {name!r}: its UV map reaches outside [0, 1]; the texels there are not baked")
@@ -220,7 +223,7 @@ def _bake_object(scene, index: int, settings: LightmapSettings, lit: _Lit, resul
 
 def _texels(scene, index: int, settings: LightmapSettings) -> tuple[Texels, np.ndarray, np.ndarray]:
     """(object ``index``'s ``Texels`` in a map of ``settings.size`` or of its texel density's size, its triangles'
-    rows, their bake UVs); the same each time it is asked for (its seed is the object's)."""
+    rows, their bake UVs)."""
     triangles = np.nonzero(scene.object_id == index)[0]
     uv = bake_uvs(scene)[triangles]
     size = settings.size if settings.texel_density is None else \
