@@ -14,6 +14,7 @@ import bpy
 import numpy as np
 
 from ...vpl_addon.lightmap.lookup import lookup, per_vertex
+from ..scene.extract import uv_layer
 
 # the colour attribute made for a mesh that has none active; not "Lightmap", which UV maps are often called and
 # whose names attributes share
@@ -47,7 +48,7 @@ def _save(map_: np.ndarray, path: str, output) -> None:
     image = bpy.data.images.new(".VPL GI lightmap", map_.shape[1], map_.shape[0], alpha=True, float_buffer=True)
     partial = os.path.join(os.path.dirname(path), ".partial-" + os.path.basename(path))
     try:
-        image.pixels.foreach_set(np.ascontiguousarray(map_[::-1], np.float32).ravel())
+        _set_pixels(image, map_)
         image.save_render(partial, scene=output)
         os.replace(partial, path)
     finally:
@@ -62,8 +63,13 @@ def write_node_image(image, map_: np.ndarray) -> None:
     size = map_.shape[0]
     if tuple(image.size) != (size, size):
         image.scale(size, size)
-    image.pixels.foreach_set(np.ascontiguousarray(map_[::-1], np.float32).ravel())
+    _set_pixels(image, map_)
     image.update()
+
+
+def _set_pixels(image, map_: np.ndarray) -> None:
+    """Blender ``image``'s pixels (bottom row first) from ``map_`` (H,W,4, row 0 at v = 1), as float32."""
+    image.pixels.foreach_set(np.ascontiguousarray(map_[::-1], np.float32).ravel())
 
 
 def write_color_attribute(obj, map_: np.ndarray, uv_map: str | None) -> str:
@@ -71,10 +77,8 @@ def write_color_attribute(obj, map_: np.ndarray, uv_map: str | None) -> str:
     active colour attribute, per corner or per vertex as its domain is (made as a corner attribute ``ATTRIBUTE``
     where the mesh has none); alpha 1, as Cycles' bake writes it. The attribute's name."""
     mesh = obj.data
-    layer = mesh.uv_layers[uv_map] if uv_map else next(
-        (layer for layer in mesh.uv_layers if layer.active_render), mesh.uv_layers[0])
     uv = np.empty(2 * len(mesh.loops), np.float32)
-    layer.data.foreach_get("uv", uv)
+    uv_layer(mesh, uv_map).data.foreach_get("uv", uv)  # the map extraction baked in
     values = lookup(map_, uv.reshape(-1, 2))
     attribute = mesh.color_attributes.active_color
     if attribute is None:

@@ -73,14 +73,14 @@ def _mesh_arrays(obj, matrix, materials: MaterialTable, object_index: int, warni
             tangents = _tangents(obj, mesh, materials, slots, m, mirrored, warnings)
             tangents = None if tangents is None else tangents[lidx]
         baked = None
-        if bake_uv is not None and _uv_layer(mesh, bake_uv or None) is not None:
-            baked = _array(_uv_layer(mesh, bake_uv or None).data, "uv", 2)[lidx]
+        if bake_uv is not None and uv_layer(mesh, bake_uv or None) is not None:
+            baked = _array(uv_layer(mesh, bake_uv or None).data, "uv", 2)[lidx]
         return triangles, normals, uvs, mat, np.full(len(tris), object_index, np.int32), tangents, colors, baked
     finally:
         obj.to_mesh_clear()
 
 
-def _uv_layer(mesh, name: str | None):
+def uv_layer(mesh, name: str | None):
     """The UV layer named ``name``, or the one rendering uses by default (None if the mesh has none)."""
     layers = mesh.uv_layers
     if name is not None and name in layers:
@@ -94,7 +94,7 @@ def _uvs(obj, mesh, materials: MaterialTable, slots: list[int], mat, lidx, warni
     read: dict[str, np.ndarray] = {}  # each layer read once, however many materials use it
     for i in sorted(set(slots)):
         name = materials.uv_map.get(i)
-        layer = _uv_layer(mesh, name)
+        layer = uv_layer(mesh, name)
         if layer is None:
             if materials.images.get(i):
                 warnings.append(f"object {obj.name!r}: it has no UV map, so material "
@@ -141,7 +141,7 @@ def _tangents(obj, mesh, materials: MaterialTable, slots: list[int], m: np.ndarr
     material, as Cycles' Normal Map node uses them; None when Blender cannot make them (the engine then derives
     them per triangle from the UVs)."""
     name = next(materials.uv_map.get(i) for i in slots if materials.normal_mapped(i))
-    layer = _uv_layer(mesh, name)
+    layer = uv_layer(mesh, name)
     if layer is None:
         return None
     try:
