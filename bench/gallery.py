@@ -22,15 +22,15 @@ import tempfile
 import numpy as np
 
 from vbnl_stages import register_extension
+from vpl_addon.core.color import linear_to_srgb  # noqa: E402 (vbnl_stages puts the project on the path)
+from vpl_addon.core.compiled import cache_root  # noqa: E402
 
 ROOT = pathlib.Path(__file__).resolve().parent.parent
-CACHE = os.path.join(os.environ.get("VPL_GI_CACHE", os.path.expanduser("~/.cache/vpl_gi")))
 
 
 def _srgb(image: np.ndarray) -> np.ndarray:
     """(H,W,3) linear RGB as 8-bit-ready sRGB in [0, 1] (Blender's Standard view transform)."""
-    x = np.clip(np.nan_to_num(image[..., :3], nan=0.0), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return linear_to_srgb(np.clip(np.nan_to_num(image[..., :3], nan=0.0), 0.0, 1.0))
 
 
 def ours(bpy, blend: str, percentage: int | None) -> tuple[float, np.ndarray]:
@@ -106,7 +106,7 @@ def main() -> int:
         name = pathlib.Path(blend).stem
         _opened(bpy, blend, None)
         pct = args.percentage if args.percentage != bpy.context.scene.render.resolution_percentage else None
-        reference, source = reference_for(blend, pct, str(ROOT / "tests" / "references"), CACHE,
+        reference, source = reference_for(blend, pct, str(ROOT / "tests" / "references"), cache_root(),
                                           args.reference_samples, print)
         wall, image = ours(bpy, blend, pct)
         with tempfile.TemporaryDirectory() as folder:

@@ -34,6 +34,7 @@ shared_scenes = importlib.import_module(f"{PKG}.importers.shared_scenes")
 reference = importlib.import_module(f"{PKG}.operators.output.reference")
 output = importlib.import_module(f"{PKG}.operators.output.render_file")
 exr = importlib.import_module(f"{PKG}.vpl_addon.core.exr")
+linear_to_srgb = importlib.import_module(f"{PKG}.vpl_addon.core.color").linear_to_srgb
 
 LUMA = np.array([0.2126, 0.7152, 0.0722])
 
@@ -50,8 +51,7 @@ def box_down(img: np.ndarray, shape) -> np.ndarray:
 
 
 def to_png(img: np.ndarray, exposure: float) -> np.ndarray:
-    x = np.clip(img[..., :3] * exposure, 0, 1)
-    x = np.where(x <= 0.0031308, 12.92 * x, 1.055 * x ** (1 / 2.4) - 0.055)
+    x = linear_to_srgb(np.clip(img[..., :3] * exposure, 0, 1))
     return (x * 255 + 0.5).astype(np.uint8)
 
 

@@ -28,6 +28,12 @@ def limit_scale(rgb: np.ndarray, limit: float) -> np.ndarray:
     return scale
 
 
+def linear_to_srgb(c: np.ndarray) -> np.ndarray:
+    """sRGB-encoded values of linear ones in [0, 1] (the inverse of ``srgb_to_linear``; clip first)."""
+    c = np.asarray(c)
+    return np.where(c <= 0.0031308, 12.92 * c, 1.055 * np.maximum(c, 0.0031308) ** (1 / 2.4) - 0.055)
+
+
 def srgb_to_linear(c: np.ndarray) -> np.ndarray:
     """Linear values of sRGB-encoded ones (the IEC 61966-2-1 transfer function, as Blender's colour management)."""
     c = np.asarray(c)
