@@ -63,10 +63,15 @@ def picture_against_cycles(folder: pathlib.Path, title: str) -> list[str]:
     for scene, by_metric in ratios.items():
         cells = [by_metric.get(m, {}).get(t, "n/a") for m in ("rMAE", "blocks", "clean") for t in times]
         rows.append(f"| {scene} | " + " | ".join(cells) + " |")
-    rows.append("")
+    return rows + ["", *_shown_plots(folder)]
+
+
+def _shown_plots(folder: pathlib.Path) -> list[str]:
+    """The page's lines showing ``folder``'s plots, from their copies (``plots``)."""
+    lines = []
     for plot in sorted(folder.glob("*.png")):
-        rows += [f"![{plot.stem}](images/bench/{folder.name}/{plot.name})", ""]
-    return rows
+        lines += [f"![{plot.stem}]({(PLOTS / folder.name / plot.name).relative_to(PAGE.parent).as_posix()})", ""]
+    return lines
 
 
 def light_passes(folder: pathlib.Path, title: str) -> list[str]:
@@ -128,10 +133,7 @@ def scene_check(folder: pathlib.Path, title: str) -> list[str]:
         ratio = " / ".join(f"{v:.3f}" for v in entry.get("ratio_rgb") or [])
         rows.append(f"| {entry['scene']} | {entry['samples']} | {ratio or 'none shipped'} | "
                     f"{entry.get('reference') or ''} |")
-    rows.append("")
-    for plot in sorted(folder.glob("*.png")):
-        rows += [f"![{plot.stem}](images/bench/{folder.name}/{plot.name})", ""]
-    return rows
+    return rows + ["", *_shown_plots(folder)]
 
 
 SECTIONS = (  # (folder, title, how its figures become a section)

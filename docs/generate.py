@@ -67,10 +67,10 @@ def _wrapped(text: str) -> list[str]:
 
 
 def _table(settings) -> list[str]:
+    from vpl_gi.operators.cli.scene_flags import flag_of
     rows = ["| setting | default | flag | what it does |", "| --- | --- | --- | --- |"]
     for s in settings:
-        flag = s.prop.replace("_", "-")
-        flag = f"--no-{flag}" if s.kind is bool and s.default else f"--{flag}"
+        flag = flag_of(s)
         default = ("on" if s.default else "off") if s.kind is bool else f"{s.default:g}" if s.kind is float \
             else str(s.default)
         text = s.option.description.replace("|", "\\|")

@@ -89,10 +89,16 @@ SETTING_FLAGS = ("samples", "light_samples", "seed", "method", "indirect_samples
                  "clamp_indirect", "denoising_prefilter", "denoising_quality")
 
 
-def placement_flag(r, setting) -> None:
-    """The flag of one placement setting (``methods.base.Exposed``): ``--NAME VALUE``, or ``--no-NAME`` for a switch
-    that is on by default; its help the setting's tooltip, said of the methods it applies to."""
+def flag_of(setting) -> str:
+    """The command line's flag of one placement setting (``methods.base.Exposed``): ``--NAME``, or ``--no-NAME``
+    for a switch that is on by default."""
     flag = setting.prop.replace("_", "-")
+    return f"--no-{flag}" if setting.kind is bool and setting.default else f"--{flag}"
+
+
+def placement_flag(r, setting) -> None:
+    """The flag of one placement setting (``flag_of``): ``--NAME VALUE``, or ``--no-NAME`` for a switch that is on
+    by default; its help the setting's tooltip, said of the methods it applies to."""
     owner = setting.path[0] if setting.path[0] in METHODS else None
     if owner is None and setting.prop in PATH_REUSE:
         owner = ", ".join(m.name for m in METHODS.values() if m.reuses_light_paths) + " in a sequence"
@@ -102,12 +108,12 @@ def placement_flag(r, setting) -> None:
         f"{how.label} {'off' if setting.default else 'on'} ({said})" if setting.kind is bool else
         f"{said} (default {setting.default})")
     if setting.kind is bool:
-        r.add_argument(f"--{'no-' if setting.default else ''}{flag}", dest=setting.prop, action="store_const",
-                       const=not setting.default, help=text)
+        r.add_argument(flag_of(setting), dest=setting.prop, action="store_const", const=not setting.default,
+                       help=text)
     elif how.items:
-        r.add_argument(f"--{flag}", choices=[item[0] for item in how.items], help=text)
+        r.add_argument(flag_of(setting), choices=[item[0] for item in how.items], help=text)
     else:
-        r.add_argument(f"--{flag}", type=setting.kind, help=text)
+        r.add_argument(flag_of(setting), type=setting.kind, help=text)
 
 
 def render_flags(r) -> None:
