@@ -5,7 +5,8 @@ render at 1 sample first, so compiled kernels are loaded); it prints wall time, 
 are thread-seconds, summed over the threads that ran them), rays and rays per wall second, peak memory, and raw
 embreex's rays per second measured in the same run: incoherent closest-hit rays (random origins in the scene's box,
 random directions) in batches of 65,536 on as many threads as the render used, float32 arrays made beforehand (its
-best case). The ratio of the two is the bar of issue 26.
+best case). The ratio of the two is the bar of issue 26. Then, per stage, the seconds its threads waited on embree
+(``RenderResult.embree_seconds``) and their share of the stage, and of the render's wall time x threads.
 
 With ``--functions`` the render runs under py-spy (a sampling profiler that sees every thread, numpy's and
 embree's time included in the line that called them), and the functions and lines with the largest share of the
@@ -106,9 +107,9 @@ def render_once(args) -> None:
         settings.samples = args.samples
     render(scene, RenderSettings(samples=1, light_samples=1, method=settings.method))  # kernels loaded
     with PeakMemory() as memory:
-        t0 = time.perf_counter()
+        t0, cpu0 = time.perf_counter(), os.times()
         result = render(scene, settings)
-        wall = time.perf_counter() - t0
+        wall, cpu = time.perf_counter() - t0, os.times()
     raw = raw_embreex(scene.triangles, result.threads)
     cam = scene.camera
     print(f"{pathlib.Path(args.scene).name}: {len(scene.triangles):,} triangles, {cam.width}x{cam.height}, method "
@@ -116,9 +117,23 @@ def render_once(args) -> None:
           f"{result.threads} threads, load {os.getloadavg()[0]:.1f}")
     print(f"wall {wall:.2f} s, {result.rays / 1e6:.1f} M rays, {result.rays / wall / 1e6:.2f} M rays/s; raw embreex "
           f"{raw / 1e6:.2f} M rays/s on {result.threads} threads: {100 * result.rays / wall / raw:.0f} %; "
-          f"peak memory {memory.peak_mb:.0f} MB")
+          f"peak memory {memory.peak_mb:.0f} MB; cpu user {cpu.user - cpu0.user:.2f} s, system "
+          f"{cpu.system - cpu0.system:.2f} s")
     stages = {**result.seconds, **{f"place: {k}": v for k, v in result.info.get("seconds", {}).items()}}
     print("stages (s; blocks' stages are thread-seconds): " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
+    print(embree_shares(result, wall))
+
+
+def embree_shares(result, wall: float) -> str:
+    """The line of each stage's seconds waiting on embree and their share of the stage's seconds (place's are
+    summed over the threads that traced, so its share may pass 100 %), and all of them as a share of the render's
+    thread-seconds (wall x threads)."""
+    waited = result.embree_seconds
+    parts = [f"{stage} {seconds:.2f} s ({100 * seconds / max(result.seconds[stage], 1e-9):.0f} %)"
+             for stage, seconds in waited.items()]
+    total = sum(waited.values())
+    return (f"waiting on embree: {', '.join(parts)}; in all {total:.2f} thread-s, "
+            f"{100 * total / (wall * result.threads):.0f} % of wall x {result.threads} threads")
 
 
 def main():

@@ -113,6 +113,8 @@ class RenderSettings:
 class RenderResult:
     passes: dict[str, np.ndarray]  # name -> (H,W,C) float32, row 0 at the top
     seconds: dict[str, float] = field(default_factory=dict)  # stage -> seconds (blocks: summed over threads)
+    # stage -> the part of those seconds its threads waited on embree (place: summed over the threads that traced)
+    embree_seconds: dict[str, float] = field(default_factory=dict)
     rays: int = 0
     threads: int = 1  # CPU threads it ran on
     warnings: list[str] = field(default_factory=list)
@@ -260,7 +262,7 @@ def render(scene, settings: RenderSettings, progress: Callable[[float, str], boo
         plan = _plan(scene, settings, lights)
         placed = _place(scene, settings, plan, tracer, lights, sequence, result)
         job = _Job(scene, settings, tracer, lights, plan, placed, _frame(scene, plan))
-        timing = _shade(job, progress, shown)
+        timing = _shade(job, progress, shown, result)
     finally:
         if sequence is None:  # a sequence keeps its BVH for the next frame
             tracer.close()
@@ -343,7 +345,7 @@ def _place(scene, settings: RenderSettings, plan: _Plan, tracer, lights: LightSe
     needs no VPL (the lights' own light the metal reflects)."""
     if not plan.need_indirect:
         return _Placed()
-    t0 = time.perf_counter()
+    t0, waited = time.perf_counter(), tracer.embree_seconds
     placement_seed = settings.seed if settings.placement_seed is None else settings.placement_seed
     context = MethodContext(scene, tracer, lights, np.random.default_rng([placement_seed, 1 << 20]), plan.bounces,
                             np.random.default_rng([settings.seed, 1 << 21]),
@@ -358,6 +360,7 @@ def _place(scene, settings: RenderSettings, plan: _Plan, tracer, lights: LightSe
         placed.d_min = clamp_distance(scene.surface_area, plan.placement.vpls, settings.gather.clamp)
         placed.permutation = context.rng.permutation(len(vpls))
     result.seconds["place"] = time.perf_counter() - t0
+    result.embree_seconds["place"] = tracer.embree_seconds - waited
     plan.need_indirect = len(vpls) > 0 or (plan.sampled is None and scene.materials.glossy)
     return placed
 
@@ -379,21 +382,25 @@ def _frame(scene, plan: _Plan) -> _Frame:
                   guide_normal, guide_count)
 
 
-def _shade(job: _Job, progress, shown) -> dict[str, float]:
+def _shade(job: _Job, progress, shown, result: RenderResult) -> dict[str, float]:
     """The frame's blocks of pixels shaded concurrently (``_shade_block``); after each, ``shown`` handed the output
     rows it completes and ``progress`` told, which cancels the render by returning False (``Cancelled``). Returns
-    each block stage's seconds summed over the blocks."""
+    each block stage's seconds summed over the blocks; the part of them spent waiting on embree goes to
+    ``result.embree_seconds``."""
     plan, block_pixels = job.plan, job.settings.block_pixels
     blocks = len(range(0, plan.w * plan.h, block_pixels))
     timing = {"gbuffer": 0.0, "direct": 0.0, "gather": 0.0}
+    waited = result.embree_seconds
+    waited.update(dict.fromkeys(timing, 0.0))
     cancelled = threading.Event()
     ready = 0  # output rows shown so far
     # one block more than cores: numpy's GIL-held moments of one block overlap another's embree and ufunc work
     # (living room, 2 cores: 1.8 cores busy instead of 1.7)
     with ThreadPoolExecutor(job.tracer.threads + 1) as pool:
         for done, spent in enumerate(pool.map(partial(_shade_block, job, cancelled), range(blocks)), start=1):
-            for stage, seconds in spent.items():
+            for stage, (seconds, embree) in spent.items():
                 timing[stage] += seconds
+                waited[stage] += embree
             if shown is not None and not cancelled.is_set():  # blocks end in order: all before this are done
                 ready = _show(job, shown, ready, min(done * block_pixels, plan.w * plan.h))
             if progress is not None and progress(done / blocks, "rendering") is False:
@@ -415,30 +422,32 @@ def _show(job: _Job, shown, ready: int, done_pixels: int) -> int:
     return rows
 
 
-def _shade_block(job: _Job, cancelled: threading.Event, number: int) -> dict[str, float]:
+def _shade_block(job: _Job, cancelled: threading.Event, number: int) -> dict[str, tuple[float, float]]:
     """Everything for block ``number`` of the frame's pixels, its random numbers drawn from ``(seed, number)``: the
     G-buffer, direct light, the gather and the passes. Blocks run concurrently (numpy and embree release the GIL).
-    Returns the seconds of each stage; nothing once the render is ``cancelled``."""
+    Returns the seconds of each stage and the part of them it waited on embree; nothing once the render is
+    ``cancelled``."""
     if cancelled.is_set():
         return {}
     settings, plan = job.settings, job.plan
     start = number * settings.block_pixels
     pixels = np.arange(start, min(start + settings.block_pixels, plan.w * plan.h))
     rng = np.random.default_rng([settings.seed, number])
-    marks = {"start": time.perf_counter()}
+    tracer = job.tracer
+    marks = {"start": (time.perf_counter(), tracer.waited())}
     gbuf = GBuffer.build(job.scene, job.tracer, plan.cam.frame_pixels(pixels), settings.samples, rng,
                          plan.first_surfaces)
     _guard(settings, "G-buffer", {P.DIFFUSE_COLOR: gbuf.surface.albedo, P.EMIT: gbuf.surface.emission})
     lobe = GlossyLobe.of(gbuf.surface) if plan.need_glossy else None
-    marks["gbuffer"] = time.perf_counter()
+    marks["gbuffer"] = (time.perf_counter(), tracer.waited())
     direct, glossy, through = _direct(job, gbuf, lobe, rng)
-    marks["direct"] = time.perf_counter()
+    marks["direct"] = (time.perf_counter(), tracer.waited())
     if plan.need_indirect:
         _indirect(job, gbuf, lobe, rng, pixels)
-    marks["gather"] = time.perf_counter()
+    marks["gather"] = (time.perf_counter(), tracer.waited())
     _accumulate(job, gbuf, lobe, rng, pixels, direct, glossy, through)
-    return {"gbuffer": marks["gbuffer"] - marks["start"], "direct": marks["direct"] - marks["gbuffer"],
-            "gather": marks["gather"] - marks["direct"]}
+    stages = list(marks)
+    return {b: (marks[b][0] - marks[a][0], marks[b][1] - marks[a][1]) for a, b in zip(stages, stages[1:])}
 
 
 def _direct(job: _Job, gbuf: GBuffer, lobe: GlossyLobe | None, rng: np.random.Generator):

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import os
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
@@ -74,7 +75,9 @@ class Tracer:
         self.triangle_count = len(tri)
         self.threads = max(1, threads or os.cpu_count() or 1)
         self.rays_traced = 0  # counted under ``_counting``: the render's blocks trace on two threads at once
+        self.embree_seconds = 0.0  # seconds callers waited on embree, summed over their threads (``_counting``)
         self._counting = threading.Lock()
+        self._waited = threading.local()  # the calling thread's own share of ``embree_seconds``
         extent = float(np.abs(tri).max()) if len(tri) else 1.0
         self.extent = extent if extent > 0.0 else 1.0
         self.cutouts = cutouts  # materials.cutouts.Cutouts of these triangles, or None (no holes)
@@ -105,12 +108,26 @@ class Tracer:
         tf = np.ascontiguousarray(np.minimum(tfar, FAR), dtype=np.float32)
         return self._run32(o, d, tf, query, bvh)
 
+    def waited(self) -> float:
+        """Seconds the calling thread has waited on embree through this tracer: the part of a stage's time that
+        is the ray tracer's (``bench/profile.py``)."""
+        return getattr(self._waited, "seconds", 0.0)
+
     def _run32(self, o, d, tf, query, bvh=None):
         """embree's answers for rays in its own terms: float32, origins relative to ``center``; against ``bvh``
-        (one of ``_parts``) or the whole scene."""
-        n = len(o)
+        (one of ``_parts``) or the whole scene. The call's time is counted in ``embree_seconds`` and ``waited``."""
+        t0 = time.perf_counter()
+        parts = self._traced(o, d, tf, query, bvh)
+        seconds = time.perf_counter() - t0
+        self._waited.seconds = self.waited() + seconds
         with self._counting:
-            self.rays_traced += n
+            self.rays_traced += len(o)
+            self.embree_seconds += seconds
+        return parts
+
+    def _traced(self, o, d, tf, query, bvh):
+        """``_run32``'s answers: the rays in chunks, on the tracer's threads when there are several chunks."""
+        n = len(o)
         output = 1 if query == "INTERSECT" else None
         bvh = self._scene if bvh is None else bvh
 

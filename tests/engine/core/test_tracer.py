@@ -1,5 +1,7 @@
-"""The ray tracer (``core.tracer``): hits, misses and occlusion, big batches split over threads, an empty scene, and
-origins offset off a surface at any scale."""
+"""The ray tracer (``core.tracer``): hits, misses and occlusion, big batches split over threads, an empty scene,
+origins offset off a surface at any scale, and the time its callers wait on embree, per thread."""
+import threading
+
 import numpy as np
 import pytest
 
@@ -28,6 +30,29 @@ def test_tracer_splits_big_batches_over_threads_with_identical_results():
     assert np.array_equal(one.intersect(o, d).prim, two.intersect(o, d).prim)
     assert two.rays_traced == 200_000
     two.close()
+
+
+def test_each_thread_counts_its_own_wait_on_embree():
+    """``waited`` is the calling thread's time in embree calls, and ``embree_seconds`` all threads' together: a
+    thread that traces nothing has waited nothing, whatever the others trace."""
+    rng = np.random.default_rng(1)
+    tracer = Tracer(rng.random((200, 3, 3)), threads=2)
+    o, d = rng.random((100_000, 3)), rng.normal(size=(100_000, 3))
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    seen = {}
+
+    def work(name, rays):
+        for _ in range(rays):
+            tracer.intersect(o, d)
+            tracer.occluded(o, d, np.ones(len(o)))
+        seen[name] = tracer.waited()
+    threads = [threading.Thread(target=work, args=(name, rays)) for name, rays in (("tracing", 3), ("idle", 0))]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert seen["idle"] == 0.0 < seen["tracing"] == tracer.embree_seconds and tracer.waited() == 0.0
+    tracer.close()
 
 
 def test_empty_scene_traces_nothing():

@@ -139,6 +139,21 @@ def test_methods_light_a_floor_under_a_lamp_like_each_other(method):
     assert image.mean() == pytest.approx(expected["Combined"][..., 0].mean(), rel=0.1)
 
 
+@pytest.mark.parametrize("method", ["ir", "vbnl"])
+def test_a_render_says_how_long_each_stage_waited_on_embree(method):
+    """``RenderResult.embree_seconds``: every stage that traces has waited on embree for part of its own seconds
+    (blocks' stages: never more than them, summed over the same threads), so the profile's shares are shares."""
+    base = plane_scene([PointLight("p", [0, 0.5, 1], [100.0] * 3)], size=5, view=1.0, res=16)
+    wall = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
+    scene = Scene.build(np.concatenate([base.triangles, wall]), base.materials, base.lights, base.camera)
+    result = render(scene, RenderSettings(samples=2, light_samples=1, method=method, block_pixels=64,
+                                          placement=MethodSettings(vpls=256, vbnl=VBNLSettings(photons=1 << 12))))
+    waited = result.embree_seconds
+    assert set(waited) == {"place", "gbuffer", "direct", "gather"}
+    assert all(0.0 < waited[stage] <= result.seconds[stage] for stage in ("gbuffer", "direct", "gather"))
+    assert waited["place"] > 0.0
+
+
 def test_vbnl_gathers_one_pair_per_camera_sample_unless_told_otherwise():
     """Gather Samples 0 (the default) gives the gather one pair per camera sample, so Samples alone raises the
     render's quality: the same image, to the bit, as that number of pairs set by hand, and not the image of
