@@ -76,21 +76,21 @@ class Surface:
 
 def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     """Surface data at ``hits`` for the rays ``rows`` (which must have hit), given their unit directions."""
-    prim = hits.prim[rows]
-    b1, b2 = hits.u[rows], hits.v[rows]
-    bary = np.stack([1.0 - b1 - b2, b1, b2], axis=1)
-    position, ng, ns = np.empty((len(prim), 3)), np.empty((len(prim), 3)), np.empty((len(prim), 3))
-    _geometry(scene.triangles, scene.normals, prim, bary, position, ng, ns)
-    mat = scene.material[prim]
-    m = scene.materials
-    inputs = _inputs(scene, mat, prim, bary, ns)
+    m, k = scene.materials, len(rows)
     layer = (m.specular_tint.astype(np.float64),
              *specular_layer(m.ior.astype(np.float64), m.specular.astype(np.float64)))  # per material: tint, F0, IOR
-    tint, f0, eta = (a[mat] for a in layer)  # per point from here
+    prim, mat, bary, incident = np.empty(k, np.int32), np.empty(k, np.int32), np.empty((k, 3)), np.empty((k, 3))
+    position, ng, ns = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+    base, emission, tint = np.empty((k, 3)), np.empty((k, 3)), np.empty((k, 3))
+    roughness, metallic, f0, eta, glass = np.empty(k), np.empty(k), np.empty(k), np.empty(k), np.empty(k, np.bool_)
+    _hit_points(np.asarray(rows, np.int64), hits.prim, hits.u, hits.v, dirs, scene.triangles, scene.normals,
+                scene.material, (m.base_color, m.roughness, m.metallic, m.emission, *layer, m.glass),
+                (prim, mat, bary, incident, position, ng, ns), (base, roughness, metallic, emission, tint, f0, eta, glass))
+    inputs = _inputs(scene, mat, prim, bary, ns, {"base_color": base, "roughness": roughness, "metallic": metallic,
+                                                 "emission": emission, "normal": ns})
     if m.mix_other is not None:
         _blend(scene, mat, prim, bary, ns, inputs, layer, tint, f0, eta)
-    incident = dirs[rows]
-    smooth, normal = np.empty((len(prim), 3)), np.empty((len(prim), 3))
+    smooth, normal = np.empty((k, 3)), np.empty((k, 3))
     _turned(incident, ng, ns, inputs["normal"], smooth, normal)  # toward the ray after the normal map, as Cycles
     if m.fresnel_mix is not None:  # Metallic as F(N . I) of a mix's Fresnel curve (``Materials.fresnel_mix``)
         curved = np.nonzero(m.fresnel_mix[mat] > 0.0)[0]
@@ -101,12 +101,35 @@ def shade(scene, dirs: np.ndarray, hits, rows: np.ndarray) -> Surface:
     metal = base  # the metallic lobe's F0: the Base Color, or a material's own (``Materials.metal_color``)
     if m.metal_color is not None and (m.metal_color[mat, 0] >= 0.0).any():
         metal = np.where(m.metal_color[mat] >= 0.0, m.metal_color[mat], base)
-    edges, dielectric, below = (np.empty((len(prim), 3)) for _ in range(3))
-    _lobes(tint, f0, m.glass[mat], base, metal, metallic, eta, edges, dielectric, below)
+    edges, dielectric, below = (np.empty((k, 3)) for _ in range(3))
+    _lobes(tint, f0, glass, base, metal, metallic, eta, edges, dielectric, below)
     scale_below_layer(below, inputs["roughness"], dielectric, eta, normal, incident)
     return Surface(position=position, geometric_normal=ng, shading_normal=normal, prim=prim, material=mat,
                    albedo=below, roughness=inputs["roughness"], metallic=metallic, emission=inputs["emission"],
                    specular=metal, edge=edges, dielectric=dielectric, eta=eta, incident=incident, smooth_normal=smooth)
+
+
+@kernel
+def _hit_points(rows, hit_prim, hit_u, hit_v, dirs, triangles, normals, material, tables, points, inputs):
+    """Per hit ``rows`` of the rays (their triangles ``hit_prim``, barycentrics ``hit_u``, ``hit_v``, directions
+    ``dirs``), in one pass: ``points`` (prim, material, barycentrics, incident direction and ``_geometry``'s
+    position, geometric and interpolated normals) and ``inputs``, its material's row of each of ``tables`` (per
+    material: Base Color, Roughness, Metallic, emission, Specular Tint, layer F0, IOR, glass), in float64."""
+    prim, mat, bary, incident, position, ng, ns = points
+    base_color, rough, metal, emit, tint_of, f0_of, eta_of, glass_of = tables
+    base, roughness, metallic, emission, tint, f0, eta, glass = inputs
+    for i in range(len(rows)):
+        r = rows[i]
+        t = hit_prim[r]
+        b1, b2 = hit_u[r], hit_v[r]
+        prim[i], bary[i, 0], bary[i, 1], bary[i, 2] = t, 1.0 - b1 - b2, b1, b2
+        j = material[t]
+        mat[i] = j
+        roughness[i], metallic[i], f0[i], eta[i], glass[i] = rough[j], metal[j], f0_of[j], eta_of[j], glass_of[j]
+        for c in range(3):
+            incident[i, c] = dirs[r, c]
+            base[i, c], emission[i, c], tint[i, c] = base_color[j, c], emit[j, c], tint_of[j, c]
+    _geometry(triangles, normals, prim, bary, position, ng, ns)
 
 
 @kernel
@@ -189,13 +212,16 @@ def _hashed(prim: np.ndarray, bary: np.ndarray) -> np.ndarray:
     return (x >> np.uint64(11)).astype(np.float64) * 2.0 ** -53
 
 
-def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray) -> dict[str, np.ndarray]:
+def _inputs(scene, mat: np.ndarray, prim: np.ndarray, bary: np.ndarray, ns: np.ndarray,
+            out: dict[str, np.ndarray] | None = None) -> dict[str, np.ndarray]:
     """Per point, the material inputs an image can drive: their values, or the textures' where linked; ``normal``
-    the shading normal after any normal map (not yet turned toward the ray)."""
+    the shading normal after any normal map (not yet turned toward the ray). ``out``: the materials' own values
+    at the points, when the caller has them (``_hit_points``), which the textures then replace in place."""
     m = scene.materials
-    out = {"base_color": m.base_color.astype(np.float64)[mat], "roughness": m.roughness.astype(np.float64)[mat],
-           "metallic": m.metallic.astype(np.float64)[mat], "emission": m.emission.astype(np.float64)[mat],
-           "normal": ns}
+    if out is None:
+        out = {"base_color": m.base_color.astype(np.float64)[mat], "roughness": m.roughness.astype(np.float64)[mat],
+               "metallic": m.metallic.astype(np.float64)[mat], "emission": m.emission.astype(np.float64)[mat],
+               "normal": ns}
     if not any((m.mapped(name) >= 0).any() for name in (*out, "bump")):  # no material has a texture
         return out
     linked = {name: m.mapped(name)[mat] for name in out}
