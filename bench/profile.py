@@ -22,6 +22,7 @@ import collections
 import os
 import pathlib
 import re
+import resource
 import subprocess
 import sys
 import tempfile
@@ -107,9 +108,10 @@ def render_once(args) -> None:
         settings.samples = args.samples
     render(scene, RenderSettings(samples=1, light_samples=1, method=settings.method))  # kernels loaded
     with PeakMemory() as memory:
-        t0, cpu0 = time.perf_counter(), os.times()
+        t0, cpu0, faults0 = time.perf_counter(), os.times(), resource.getrusage(resource.RUSAGE_SELF).ru_minflt
         result = render(scene, settings)
         wall, cpu = time.perf_counter() - t0, os.times()
+        faults = resource.getrusage(resource.RUSAGE_SELF).ru_minflt - faults0
     raw = raw_embreex(scene.triangles, result.threads)
     cam = scene.camera
     print(f"{pathlib.Path(args.scene).name}: {len(scene.triangles):,} triangles, {cam.width}x{cam.height}, method "
@@ -118,7 +120,7 @@ def render_once(args) -> None:
     print(f"wall {wall:.2f} s, {result.rays / 1e6:.1f} M rays, {result.rays / wall / 1e6:.2f} M rays/s; raw embreex "
           f"{raw / 1e6:.2f} M rays/s on {result.threads} threads: {100 * result.rays / wall / raw:.0f} %; "
           f"peak memory {memory.peak_mb:.0f} MB; cpu user {cpu.user - cpu0.user:.2f} s, system "
-          f"{cpu.system - cpu0.system:.2f} s")
+          f"{cpu.system - cpu0.system:.2f} s, {faults / 1000:.0f} K page faults")
     stages = {**result.seconds, **{f"place: {k}": v for k, v in result.info.get("seconds", {}).items()}}
     print("stages (s; blocks' stages are thread-seconds): " + ", ".join(f"{k} {v:.2f}" for k, v in stages.items()))
     print(embree_shares(result, wall))

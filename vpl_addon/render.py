@@ -35,7 +35,7 @@ from .core import passes as P
 from .core.color import largest, limit_scale
 from .core.denoise import DenoiseCancelled, DenoiserMissing, check as check_denoising, denoise, prefilter_for, \
     available as denoiser_available
-from .core.memory import trim_heap
+from .core.memory import render_heap, trim_heap
 from .core.sampling import group_sum, pixel_nets
 from .core.tracer import Tracer
 from .gather.bilateral import bright_apart, deinterleave
@@ -250,12 +250,14 @@ class _Job:
     frame: _Frame
 
 
+@render_heap()
 def render(scene, settings: RenderSettings, progress: Callable[[float, str], bool] | None = None,
            sequence=None, shown: Callable[[int, np.ndarray], None] | None = None) -> RenderResult:
     """One frame; ``sequence`` (a ``sequence.state.SequenceState``) carries the method's state from the previous
     frame. Its stages are named calls, as in pbrt-v4's and Mitsuba 3's integrators: build the tracer and lights,
     plan what the frame needs, place the method's lights, make the frame's buffers, shade its blocks (G-buffer,
-    direct light, the gather, the passes), add the filtered indirect light, denoise, collect the passes."""
+    direct light, the gather, the passes), add the filtered indirect light, denoise, collect the passes. The C
+    library keeps the heap the render frees until it ends (``core.memory.render_heap``)."""
     result = RenderResult(passes={})
     tracer, lights = _build(scene, settings, sequence, result)
     try:

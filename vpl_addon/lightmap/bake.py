@@ -23,6 +23,7 @@ import numpy as np
 
 from ..core import passes as P
 from ..core.denoise import DenoiserMissing
+from ..core.memory import render_heap
 from ..core.sampling import group_sum
 from ..core.tracer import Tracer
 from ..gather.summing import GatherSettings, clamp_distance, gather
@@ -111,11 +112,13 @@ class _Lit:
     texels: dict = field(default_factory=dict)
 
 
+@render_heap()
 def bake(scene, objects: list[str], settings: LightmapSettings,
          progress: Callable[[float, str], bool] | None = None) -> LightmapResult:
     """The lightmaps of the ``objects`` (names of the scene's) in ``settings.bake_pass``; every object of the
     scene occludes and reflects light, baked or not. ``progress(fraction, text)`` hears of each object done and
-    cancels the bake by returning False (``Cancelled``)."""
+    cancels the bake by returning False (``Cancelled``). The C library keeps the heap the bake frees until it ends
+    (``core.memory.render_heap``)."""
     result = LightmapResult({}, {})
     missing = [name for name in objects if name not in scene.object_names]
     if missing:

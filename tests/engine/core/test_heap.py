@@ -1,5 +1,5 @@
-"""The C library's heap in processes that others start: a Dask worker's small trim threshold undone
-(``core.memory.heap_for_renders``)."""
+"""The C library's heap: a Dask worker's small trim threshold undone (``core.memory.heap_for_renders``), and the
+heap kept while a render runs (``core.memory.render_heap``)."""
 import subprocess
 import sys
 
@@ -38,3 +38,40 @@ def test_a_dask_workers_trim_threshold_is_undone_so_freed_arrays_are_reused():
     _, changed, _ = subprocess.run([sys.executable, "-c", probe], env={"PATH": "/usr/bin:/bin"}, capture_output=True,
                                    text=True, check=True).stdout.split()
     assert changed == "False"
+
+
+RENDER_PROBE = """
+import resource, sys
+import numpy as np
+sys.path.insert(0, {root!r})
+from vpl_addon.core.memory import render_heap
+
+np.core.multiarray._set_madvise_hugepage(False)  # 4 KiB pages, so that faults count pages
+
+
+def faults():
+    before = resource.getrusage(resource.RUSAGE_SELF).ru_minflt
+    for _ in range(20):
+        np.ones(6 << 20)  # 48 MiB, touched, then freed: past glibc's largest dynamic mmap threshold
+    return resource.getrusage(resource.RUSAGE_SELF).ru_minflt - before
+
+
+plain = faults()
+with render_heap():
+    with render_heap():  # a second render at once (the viewport's beside F12's)
+        kept = faults()
+    inner_ended = faults()
+print(plain, kept, inner_ended, faults())
+"""
+
+
+def test_a_render_keeps_the_heap_it_frees_until_the_last_render_ends():
+    """Inside ``render_heap`` an array freed and made again comes from the heap, its pages already there: a 48 MiB
+    array made twenty times faults its 12,288 pages in once instead of twenty times. The heap stays kept while any
+    render runs, and once the last one ends such arrays are mapped afresh as before."""
+    plain, kept, inner_ended, after = (int(n) for n in subprocess.run(
+        [sys.executable, "-c", RENDER_PROBE.format(root=str(ROOT))], env={"PATH": "/usr/bin:/bin"},
+        capture_output=True, text=True, check=True).stdout.split())
+    pages = 12_288
+    assert plain > 19 * pages and after > 19 * pages
+    assert kept < 3 * pages and inner_ended < pages
