@@ -136,6 +136,33 @@ def scene_check(folder: pathlib.Path, title: str) -> list[str]:
     return rows + ["", *_shown_plots(folder)]
 
 
+# bench/profile.py's lines: the render's figures, its stages, and the stages' waits on embree
+PROFILE_WALL = re.compile(r"^wall ([\d.]+) s, ([\d.]+) M rays, ([\d.]+) M rays/s; raw embreex ([\d.]+) M rays/s on "
+                          r"\d+ threads: (\d+) %; peak memory (\d+) MB")
+PROFILE_WAIT = re.compile(r"^waiting on embree: .*; in all [\d.]+ thread-s, (\d+) % of wall")
+
+
+def profiles(folder: pathlib.Path, title: str) -> list[str]:
+    """One row per scene's profile (``bench/profile.py``'s output in ``<scene>.txt``): wall time, rays per second
+    beside raw embreex's, the share of the threads' time spent waiting on embree, peak memory; then each scene's
+    stages as the profile prints them."""
+    rows = [f"## {title}", "", *_command(folder),
+            "| scene | wall s | M rays | M rays/s | raw embreex M rays/s | share of raw | threads' time in embree | "
+            "peak MB |", "| --- |" + " --- |" * 7]
+    stages = []
+    for path in sorted(folder.glob("*.txt")):
+        if path.name == "command.txt":
+            continue
+        lines = path.read_text().splitlines()
+        wall = next(PROFILE_WALL.match(line) for line in lines if PROFILE_WALL.match(line))
+        wait = next((PROFILE_WAIT.match(line) for line in lines if PROFILE_WAIT.match(line)), None)
+        share = f"{wait.group(1)} %" if wait else "n/a"
+        rows.append(f"| {path.stem} | {wall.group(1)} | {wall.group(2)} | {wall.group(3)} | {wall.group(4)} | "
+                    f"{wall.group(5)} % | {share} | {wall.group(6)} |")
+        stages += [f"- {path.stem}: " + line for line in lines if line.startswith(("stages", "waiting"))]
+    return rows + ["", "Seconds by stage (the blocks' stages summed over their threads):", "", *stages, ""]
+
+
 SECTIONS = (  # (folder, title, how its figures become a section)
     ("examples", "The denoised picture on the example scenes", picture_against_cycles),
     ("corridor", "The corridor to 30 s", picture_against_cycles),
@@ -146,6 +173,7 @@ SECTIONS = (  # (folder, title, how its figures become a section)
     ("lightmap", "Lightmaps against Cycles' bake", lightmaps),
     ("scaling", "Scaling with triangles, pixels and VPLs", scaling),
     ("scene_check", "The converted scenes against the renders shipped with them", scene_check),
+    ("profile", "Where a render's time goes", profiles),
 )
 
 
