@@ -63,9 +63,9 @@ def render_heap():
     (an mmap threshold that grows to at most 32 MB, a heap trimmed above twice that) map a block's larger arrays
     afresh and hand back the heap's top between blocks, so its pages fault in again and the kernel zeroes them (a
     256 x 256 vbnl render of the Cornell box: 395 K page faults, 1.6-1.9 s of its 9-10 CPU seconds in the kernel;
-    with the heap kept 170 K, 0.8-1.1 s). When the
-    last of the renders running at once ends, the thresholds go where glibc's dynamic ones end up for large arrays
-    (``AFTER_RENDERS``, as ``heap_for_renders``) and the freed heap goes back to the system (``trim_heap``)."""
+    with the heap kept 170 K, 0.8-1.1 s). When the last of the renders running at once ends, the thresholds go
+    where glibc's dynamic ones end up for large arrays (``AFTER_RENDERS``, as ``heap_for_renders``) and the freed
+    heap goes back to the system (``trim_heap``)."""
     with _renders_lock:
         _renders[0] += 1
         if _renders[0] == 1:
