@@ -154,8 +154,8 @@ def profiles(folder: pathlib.Path, title: str) -> list[str]:
         if path.name == "command.txt":
             continue
         lines = path.read_text().splitlines()
-        wall = next(PROFILE_WALL.match(line) for line in lines if PROFILE_WALL.match(line))
-        wait = next((PROFILE_WAIT.match(line) for line in lines if PROFILE_WAIT.match(line)), None)
+        wall = next(filter(None, map(PROFILE_WALL.match, lines)))
+        wait = next(filter(None, map(PROFILE_WAIT.match, lines)), None)
         share = f"{wait.group(1)} %" if wait else "n/a"
         rows.append(f"| {path.stem} | {wall.group(1)} | {wall.group(2)} | {wall.group(3)} | {wall.group(4)} | "
                     f"{wall.group(5)} % | {share} | {wall.group(6)} |")

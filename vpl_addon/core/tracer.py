@@ -84,8 +84,7 @@ class Tracer:
         self._seed = int(seed)
         self._triangles, self._normals = tri, None
         self._scene, self._mesh = _bvh(tri)
-        self._split, self._splitting = None, threading.Lock()  # ``_parts``: (cut-outs' mask, its copy, opaque BVH,
-        # cut-out BVH)
+        self._split, self._splitting = None, threading.Lock()  # ``_parts``: (cut-out mask, opaque BVH, cut-out BVH)
         self._pool = ThreadPoolExecutor(self.threads) if self.threads > 1 else None
 
     def checkpoint(self) -> None:
@@ -281,11 +280,11 @@ class Tracer:
         per triangle at every occlusion query)."""
         prims = self.cutouts.prims
         with self._splitting:
-            if self._split is None or (self._split[0] is not prims and not np.array_equal(self._split[1], prims)):
-                self._split = (prims, prims.copy(), _bvh(self._triangles[~prims]), _bvh(self._triangles[prims]))
-            elif self._split[0] is not prims:
+            if self._split is None or (self._split[0] is not prims and not np.array_equal(self._split[0], prims)):
+                self._split = (prims, _bvh(self._triangles[~prims]), _bvh(self._triangles[prims]))
+            elif self._split[0] is not prims:  # another Cutouts with the same mask: its BVHs serve it
                 self._split = (prims, *self._split[1:])
-            return self._split[2][0], self._split[3][0]
+            return self._split[1][0], self._split[2][0]
 
     def offset_origin(self, p: np.ndarray, n: np.ndarray) -> np.ndarray:
         """Move points p off their surface along the (geometric) normal n, toward the side n points to: by

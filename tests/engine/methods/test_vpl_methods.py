@@ -120,14 +120,18 @@ def test_systematic_resampling_is_unbiased_and_keeps_the_budget():
     assert np.mean(means) == pytest.approx(values.sum(), rel=0.02)
 
 
+def _lamp_floor_and_wall(**build) -> Scene:
+    """A point lamp over a floor seen from above, and a wall standing on the floor beside it."""
+    wall = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
+    base = plane_scene([PointLight("p", [0, 0.5, 1], [100.0] * 3)], size=5, view=1.0, res=16)
+    return Scene.build(np.concatenate([base.triangles, wall]), base.materials, base.lights, base.camera, **build)
+
+
 @pytest.mark.parametrize("method", ["ir", "bidir", "vbnl"])
 def test_methods_light_a_floor_under_a_lamp_like_each_other(method):
     """A lamp over a floor with a wall: indirect light on the floor comes off the wall. Every method agrees on it
     (the summing ones with an exact gather), and nothing is negative or non-finite."""
-    wall = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
-    base = plane_scene([PointLight("p", [0, 0.5, 1], [100.0] * 3)], size=5, view=1.0, res=16)
-    scene = Scene.build(np.concatenate([base.triangles, wall]), base.materials, base.lights, base.camera,
-                        max_bounces=1)
+    scene = _lamp_floor_and_wall(max_bounces=1)
     settings = RenderSettings(samples=4, light_samples=0, method=method,
                               placement=MethodSettings(vpls=2048, vbnl=VBNLSettings(photons=1 << 17)),
                               gather=GatherSettings(interleave=1, clamp=0.0))
@@ -143,10 +147,7 @@ def test_methods_light_a_floor_under_a_lamp_like_each_other(method):
 def test_a_render_says_how_long_each_stage_waited_on_embree(method):
     """``RenderResult.embree_seconds``: every stage that traces has waited on embree for part of its own seconds
     (blocks' stages: never more than them, summed over the same threads), so the profile's shares are shares."""
-    base = plane_scene([PointLight("p", [0, 0.5, 1], [100.0] * 3)], size=5, view=1.0, res=16)
-    wall = np.array([[[-5, 1, 0], [5, 1, 0], [5, 1, 5]], [[-5, 1, 0], [5, 1, 5], [-5, 1, 5]]], float)
-    scene = Scene.build(np.concatenate([base.triangles, wall]), base.materials, base.lights, base.camera)
-    result = render(scene, RenderSettings(samples=2, light_samples=1, method=method, block_pixels=64,
+    result = render(_lamp_floor_and_wall(), RenderSettings(samples=2, light_samples=1, method=method, block_pixels=64,
                                           placement=MethodSettings(vpls=256, vbnl=VBNLSettings(photons=1 << 12))))
     waited = result.embree_seconds
     assert set(waited) == {"place", "gbuffer", "direct", "gather"}
