@@ -25,6 +25,13 @@ class VirtualLights:
     bounce: np.ndarray  # (N,) diffuse bounces the light made up to and including this VPL (1 = first surface)
     kind: np.ndarray  # (N,) STANDARD (from a light) or REVERSE (from the camera)
     path: np.ndarray  # (N,) index of the light path (standard) or camera path (reverse) it ends
+    # (N,3) the radiant intensity a white Lambertian surface would send where the light came over one sharp glossy
+    # lobe from its light (light -> glossy -> here: a caustic, ``paths.light_paths``), 0 elsewhere
+    caustic: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.caustic is None:
+            self.caustic = np.zeros((len(self.position), 3))
 
     @staticmethod
     def empty() -> "VirtualLights":
@@ -42,8 +49,9 @@ class VirtualLights:
     def scaled(self, factor) -> "VirtualLights":
         """The same lights with intensities multiplied by a scalar or a per-light factor."""
         factor = np.asarray(factor, np.float64)
-        return VirtualLights(self.position, self.normal, self.intensity * (factor[:, None] if factor.ndim else factor),
-                             self.bounce, self.kind, self.path)
+        factor = factor[:, None] if factor.ndim else factor
+        return VirtualLights(self.position, self.normal, self.intensity * factor, self.bounce, self.kind, self.path,
+                             self.caustic * factor)
 
     def __len__(self):
         return len(self.position)

@@ -8,7 +8,12 @@ probability its largest albedo channel, the metallic one with its largest Glossy
 limit. The random numbers of a batch are
 Latin-hypercube stratified over its paths. The VPL at a bounce carries the path's
 incident power times albedo / pi (times ``surface.arrival_factor`` where a normal map bends the normal), and the
-smooth normal; divided by the number of paths (``trace_until``), the whole set estimates the indirect light.
+smooth normal; divided by the number of paths (``trace_until``), the whole set estimates the indirect light. A VPL
+whose path came from its light over one sharp glossy lobe (light -> Roughness below ``SHARP`` -> here) also holds
+the light a white Lambertian surface would reflect there (``VirtualLights.caustic``): a caustic photon in Jensen's
+sense (*Global Illumination using Photon Maps*, 1996, sec. 3.1), the light that the photon lights' renderer
+estimates from the photons' density instead of by paths that must find a small light through a sharp lobe
+(``methods.vbnl.virtual_light_sampling``).
 """
 from __future__ import annotations
 
@@ -21,6 +26,12 @@ from ..materials.microfacet import GlossyLobe
 from ..materials.surface import arrival_factor, shade
 
 BATCH_PATHS = 1 << 15
+FRESH, OVER_GLOSSY, DIFFUSED = 0, 1, 2  # what a light path did before its current segment (``trace_paths``)
+# Roughness below which a glossy lobe's caustics are the photons' (``VirtualLights.caustic``): through a broader
+# lobe the camera's paths find the lights well (the Principled BSDF box's metal band, Roughness 0.25 to 0.85: its
+# Diffuse Indirect rMAE 0.100 by paths, 0.107 by photons), through a sharper one 0.1 % of their samples carry 82 %
+# of the light (the helmet's metal under its sky's sun)
+SHARP = 0.2
 
 
 def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max_bounces: int,
@@ -38,6 +49,9 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
     glossy = scene.materials.glossy
     origins, dirs, power, path, first_bounce, light = _first_segments(lights, count, rng, light_prob, first_path,
                                                                       start, record is not None)
+    # per path: FRESH (no bounce yet), OVER_GLOSSY (one bounce, off a sharp glossy lobe) or DIFFUSED (any other);
+    # a path continued from a given segment counts as diffused, its past unknown
+    past = np.full(len(origins), FRESH if start is None else DIFFUSED, np.int8)
     found = []
     for bounce in range(first_bounce, max_bounces + 1):
         if len(origins) == 0:
@@ -47,16 +61,20 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
         hits = start_hits if bounce == first_bounce and start_hits is not None else \
             tracer.intersect(origins, dirs, tinted=True)
         rows = np.nonzero(hits.hit)[0]
-        surf, path = shade(scene, dirs, hits, rows), path[rows]
+        surf, path, past = shade(scene, dirs, hits, rows), path[rows], past[rows]
         incident = power[rows] if hits.tint is None else power[rows] * hits.tint[rows]  # past coloured glass
-        diffuse = surf.albedo * arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
-        found.append(_left_lights(surf, incident, diffuse, bounce, path))
+        arrival = arrival_factor(surf)[:, None]  # a normal map's light, as Cycles sees it
+        diffuse = surf.albedo * arrival
+        found.append(_left_lights(surf, incident, diffuse, bounce, path,
+                                  np.where((past == OVER_GLOSSY)[:, None], incident * arrival / np.pi, 0.0)))
         if bounce == max_bounces:
             break
-        sel, dirs, weight = _scattered(surf, diffuse, rng, glossy)
+        sel, dirs, weight, shiny = _scattered(surf, diffuse, rng, glossy)
         power = incident[sel] * weight
         origins = tracer.offset_origin(surf.position[sel], surf.geometric_normal[sel])
         path = path[sel]
+        sharp = shiny & (surf.roughness[sel] < SHARP)
+        past = np.where(sharp & (past[sel] == FRESH), OVER_GLOSSY, DIFFUSED).astype(np.int8)
     return VirtualLights.concat(found)
 
 
@@ -75,35 +93,40 @@ def _first_segments(lights, count, rng, light_prob, first_path, start, with_ligh
     return origins, dirs, power, np.arange(first_path, first_path + count), 1, light
 
 
-def _left_lights(surf, incident, diffuse, bounce, path):
+def _left_lights(surf, incident, diffuse, bounce, path, caustic):
     """The standard VPLs a bounce leaves at the hits ``surf`` of paths ``path``: one at each that reflects diffusely
-    (none on metal), with the smooth normal and the ``incident`` power times the ``diffuse`` reflectance / pi."""
+    (none on metal), with the smooth normal and the ``incident`` power times the ``diffuse`` reflectance / pi, and
+    the ``caustic`` intensity (``VirtualLights.caustic``) of each hit."""
     lit = np.nonzero(largest(surf.albedo) > 0.0)[0]
     lights_left = len(lit)
     if lights_left == len(path):  # every hit: no copies
         lit = slice(None)
     return VirtualLights(surf.position[lit], surf.smooth_normal[lit], incident[lit] * diffuse[lit] / np.pi,
-                         np.full(lights_left, bounce, np.int32), np.full(lights_left, STANDARD, np.int8), path[lit])
+                         np.full(lights_left, bounce, np.int32), np.full(lights_left, STANDARD, np.int8), path[lit],
+                         caustic[lit])
 
 
 def _scattered(surf, diffuse, rng, glossy: bool):
-    """(the hits whose paths go on, their directions, the weight f cos / pdf each carries) past a bounce at ``surf``
-    (``diffuse`` the diffuse reflectance): Russian roulette keeps a path on the diffuse lobe with probability its
-    largest albedo channel (a cosine-weighted direction) and, with a ``glossy`` lobe, on the metallic one with its
-    largest Glossy Color channel (``_glossy_bounces``); a direction below the true surface is absorbed."""
+    """(the hits whose paths go on, their directions, the weight f cos / pdf each carries, whether each took the
+    glossy lobe) past a bounce at ``surf`` (``diffuse`` the diffuse reflectance): Russian roulette keeps a path on
+    the diffuse lobe with probability its largest albedo channel (a cosine-weighted direction) and, with a
+    ``glossy`` lobe, on the metallic one with its largest Glossy Color channel (``_glossy_bounces``); a direction
+    below the true surface is absorbed."""
     choose_diffuse = np.clip(largest(surf.albedo), 0.0, 1.0)
     u = rng.random(len(choose_diffuse))
     keep = u < choose_diffuse
     new_dirs, _ = cosine_hemisphere(rng.random(keep.sum()), rng.random(keep.sum()), surf.shading_normal[keep])
     weight = diffuse[keep] / choose_diffuse[keep, None]
     bouncing = np.nonzero(keep)[0]
+    shiny = np.zeros(len(bouncing), bool)
     if glossy:
-        shiny, dirs_g, weight_g = _glossy_bounces(surf, keep, u, choose_diffuse, rng)
-        bouncing = np.concatenate([bouncing, shiny])
+        glossy_rows, dirs_g, weight_g = _glossy_bounces(surf, keep, u, choose_diffuse, rng)
+        bouncing = np.concatenate([bouncing, glossy_rows])
         new_dirs = np.concatenate([new_dirs, dirs_g])
         weight = np.concatenate([weight, weight_g])
+        shiny = np.concatenate([shiny, np.ones(len(glossy_rows), bool)])
     leaves = (dot(new_dirs, surf.geometric_normal[bouncing]) > 0.0) & (largest(weight) > 0.0)
-    return bouncing[leaves], new_dirs[leaves], weight[leaves]
+    return bouncing[leaves], new_dirs[leaves], weight[leaves], shiny[leaves]
 
 
 def _glossy_bounces(surf, keep, u, choose_diffuse, rng):

@@ -94,20 +94,21 @@ def roulette(weight: np.ndarray, rng: np.random.Generator,
 
 
 def at_metal(y: Surface, rows: np.ndarray, owner: np.ndarray, throughput: np.ndarray, lights, tracer, rng,
-             out: np.ndarray, branch: np.ndarray | None = None) -> PathVertices:
+             out: np.ndarray, branch: np.ndarray | None = None, unlit: np.ndarray | None = None) -> PathVertices:
     """The hits ``rows`` of ``y`` as metallic vertices (``owner``, ``throughput`` and ``branch`` given per hit,
     the branch of the vertex each hit came from; the new vertices are its metallic branches) that survive
     ``roulette`` on their throughput times their lobe's albedo (Glossy Color, ``microfacet.glossy_color``: the lobe
     is built for the survivors alone), their direct light through the lobe (next-event estimation,
     ``GLOSSY_LIGHT_SAMPLES`` with MIS, ``COAT_LIGHT_SAMPLES`` at a rough coat by light samples alone) added to
-    ``out``."""
+    ``out``, except at the ``unlit`` ones (per row of ``rows``: a caustic the caller takes from photons)."""
     live, boost = roulette(throughput[rows] * glossy_color(y, rows), rng)
-    rows = rows[live]
+    rows, lit = rows[live], np.ones(len(live), bool) if unlit is None else ~unlit[live]
     lobe = GlossyLobe.of(y, rows)  # for the few the roulette leaves
     metal = PathVertices(y.take(rows), owner[rows], throughput[rows] * boost[:, None], lobe,
                          None if branch is None else 2 * branch[rows] + 1)
     coat = metal.point.rough_coat
-    for part, samples in ((np.nonzero(~coat)[0], GLOSSY_LIGHT_SAMPLES), (np.nonzero(coat)[0], COAT_LIGHT_SAMPLES)):
+    for part, samples in ((np.nonzero(~coat & lit)[0], GLOSSY_LIGHT_SAMPLES),
+                          (np.nonzero(coat & lit)[0], COAT_LIGHT_SAMPLES)):
         if len(part):
             light = direct_light(metal.point.take(part), lights, tracer, samples, rng, glossy=metal.lobe.take(part))[1]
             out += group_sum(metal.owner[part], metal.throughput[part] * light, len(out))

@@ -215,16 +215,22 @@ def test_photons_held_and_split_a_number_at_a_time_are_split_as_one_batch(monkey
     lights = box_lights(300, rng)
     points, normals = points_near_box_faces(10_000, rng)
     values, bounce = rng.random((10_000, 3)), rng.integers(1, 5, 10_000)
+    caustic = np.where((rng.random(10_000) < 0.2)[:, None], 0.5 * values, 0.0)  # a fifth came over glossy lobes
     batches = [VirtualLights(points[part], normals[part], values[part], bounce[part].astype(np.int32),
-                             np.zeros(len(part), np.int8), part) for part in np.array_split(np.arange(10_000), 10)]
+                             np.zeros(len(part), np.int8), part, caustic[part])
+               for part in np.array_split(np.arange(10_000), 10)]
     tracer = Tracer(plane_scene().triangles)
     split, halves = split_photons(lights, iter(batches), 4, tracer)
     lids = photon_lights.lid_heights(tracer, points, normals, photon_lights.LID * lights.radius.max())
     tracer.close()
     assert np.isfinite(lids).any()  # the floor is over some of them: they go to no light in both
-    assert np.allclose(split, spread(lights, points, normals, values, bounce - 1, 4, lids=lids), rtol=1e-9,
+    assert np.allclose(split[:, :4], spread(lights, points, normals, values, bounce - 1, 4, lids=lids), rtol=1e-9,
                        atol=1e-13)
-    assert split.sum() > 0.5 * values.sum()
+    assert split[:, :4].sum() > 0.5 * values.sum()
+    # the caustic photons once more, by their caustic light, in the group after the last bounce
+    assert np.allclose(split[:, 4], spread(lights, points, normals, caustic, np.zeros(10_000, np.int64), 1,
+                                           lids=lids)[:, 0], rtol=1e-9, atol=1e-13)
+    assert split[:, 4].sum() > 0.5 * caustic.sum() > 0.0
     # the photons of odd paths (here photon i ends path i): their luminance and its first moment by the kernels
     moments = np.c_[values @ LUMINANCE, (values @ LUMINANCE)[:, None] * points]
     odd = Splitting(lights, 1, 3, raw_groups=1, raw_channels=4)
@@ -351,7 +357,7 @@ def test_slopes_take_the_light_of_the_open_floor_out_of_the_corner():
         lights = PhotonLights(position, up, radius, np.zeros((len(xy), 3)), catchment=share.area,
                               centre=share.centre, reach=reach)
         by_bounce, halves = split_photons(lights, iter([photons]), 1, tracer)
-        lights.intensity = by_bounce[:, -1]
+        lights.intensity = by_bounce[:, 0]
         flat = PhotonLights(position, up, radius, lights.intensity, catchment=share.area, reach=reach)
         lights.slope = fit_slopes(position, up, radius, reach, share.flat, lights.radiance @ LUMINANCE, halves)
         return flat, lights

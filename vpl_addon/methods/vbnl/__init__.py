@@ -316,8 +316,10 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     finally:
         lanes.release(context.tracer.threads)  # no job waits for a lane that is never freed
         tracing.shutdown(cancel_futures=True)
-    lights.by_bounce = np.cumsum(by_bounce, axis=1)
+    lights.by_bounce = np.cumsum(by_bounce[:, :bounces], axis=1)
     lights.intensity = lights.by_bounce[:, -1]
+    if state is None:  # a sequence's photons continue paths whose past is not kept: no caustic tells apart there
+        lights.caustic = by_bounce[:, bounces]
     lights.slope = fit_slopes(lights.position, lights.normal, lights.radius, lights.reach, share.flat,
                               luminance(lights.radiance), halves)
     marks["photon_splitting"] = time.perf_counter()
@@ -364,12 +366,13 @@ def split_photons(lights, batches, bounces: int, tracer) -> tuple[np.ndarray, np
     """Photon splitting (sec. 3.3): the intensity of the photons of ``batches`` shared among the lights covering
     them (not those under a lid, ``photon_lights.LID``), split over the tracer's threads a batch at a time (or,
     with many lights, as many batches at a time as make ``Splitting.points`` photons); a ``checkpoint`` of the
-    tracer after each batch. Returns (N, bounces, 3) the intensity kept apart by bounce, and (N, 2, 4) their
-    luminance and its first moment (sum of k_j I_p p) weighted by the lights' kernels, of the photons of even and
-    of odd light paths apart (``fit_slopes``)."""
+    tracer after each batch. Returns (N, bounces + 1, 3) the intensity kept apart by bounce, then the caustic
+    photons' white-receiver intensity (``VirtualLights.caustic``), and (N, 2, 4) their luminance and its first
+    moment (sum of k_j I_p p) weighted by the lights' kernels, of the photons of even and of odd light paths apart
+    (``fit_slopes``)."""
     reach = LID * float(lights.radius.max()) if len(lights) else 0.0
     with ThreadPoolExecutor(tracer.threads) as pool:
-        splitting = Splitting(lights, bounces, 3, pool, tracer.threads, raw_groups=2, raw_channels=4)
+        splitting = Splitting(lights, bounces + 1, 3, pool, tracer.threads, raw_groups=2, raw_channels=4)
         held = []
         for photons in chain(batches, [None]):
             if photons is not None:
@@ -377,12 +380,35 @@ def split_photons(lights, batches, bounces: int, tracer) -> tuple[np.ndarray, np
             if held and (photons is None or sum(map(len, held)) >= splitting.points):
                 photons = VirtualLights.concat(held)
                 held = []
-                light = luminance(photons.intensity)[:, None]
-                splitting.add(photons.position, photons.normal, photons.intensity, photons.bounce - 1,
-                              lid_heights(tracer, photons.position, photons.normal, reach),
-                              np.concatenate([light, light * photons.position], axis=1), photons.path % 2)
+                points, normals, values, groups = _split_rows(photons, bounces)
+                splitting.add(points, normals, values, groups, lid_heights(tracer, points, normals, reach),
+                              *_raw_rows(photons))
             tracer.checkpoint()
     return splitting.total(), splitting.raw_total()
+
+
+def _caustics(photons) -> np.ndarray:
+    """The photons that hold a caustic's light (``VirtualLights.caustic``)."""
+    return np.nonzero(photons.caustic.any(axis=1))[0]
+
+
+def _split_rows(photons, bounces: int):
+    """(points, normals, values, groups) that photon splitting shares: every photon by its bounce, and the caustic
+    ones once more, their white-receiver intensity in the group after the last bounce."""
+    c = _caustics(photons)
+    return (np.concatenate([photons.position, photons.position[c]]),
+            np.concatenate([photons.normal, photons.normal[c]]),
+            np.concatenate([photons.intensity, photons.caustic[c]]),
+            np.concatenate([photons.bounce - 1, np.full(len(c), bounces)]))
+
+
+def _raw_rows(photons):
+    """(raw values, raw groups) beside ``_split_rows``: each photon's luminance and its first moment, in the group of
+    the parity of its light path (``fit_slopes``); zero for the caustic copies, which the slopes do not weigh."""
+    light = luminance(photons.intensity)[:, None]
+    c = len(_caustics(photons))
+    raw = np.concatenate([np.concatenate([light, light * photons.position], axis=1), np.zeros((c, 4))])
+    return raw, np.concatenate([photons.path % 2, np.zeros(c, np.int64)])
 
 
 def gather_samples(settings, camera_samples: int) -> int:

@@ -146,6 +146,9 @@ class PhotonLights:
     centre: np.ndarray | None = None  # (N,3) c_j, the centre of the light's share; None: its position
     slope: np.ndarray | None = None  # (N,3) gamma_j, the relative change of its radiance (``fit_slopes``); None: 0
     by_bounce: np.ndarray | None = None  # (N,B,3) intensity of the photons of at most 1, 2, ... B bounces
+    # (N,3) the white-receiver intensity of the photons that came over one sharp glossy lobe
+    # (``VirtualLights.caustic``); None: not kept apart
+    caustic: np.ndarray | None = None
     # (N, SECTORS) how far the light reaches in each sector of its disc (``open_reach``); None: its whole disc
     reach: np.ndarray | None = None
     grid: LightGrid | None = field(default=None, repr=False)
@@ -180,8 +183,17 @@ class PhotonLights:
 
     def radiance_upto(self, bounces: int | None) -> np.ndarray:
         """(N,3) L_j = I_j / A_j of the light of at most ``bounces`` bounces."""
+        return self._over_area(self.intensity_upto(bounces))
+
+    @property
+    def caustic_radiance(self) -> np.ndarray | None:
+        """(N,3) the radiance of ``caustic`` over each light's area (None where not kept apart)."""
+        return None if self.caustic is None else self._over_area(self.caustic)
+
+    def _over_area(self, intensity: np.ndarray) -> np.ndarray:
+        """(N,3) intensities per light over its area A_j (0 where it has none)."""
         area = np.pi * self.radius * self.radius if self.catchment is None else self.catchment
-        return np.where(area[:, None] > 0.0, self.intensity_upto(bounces) / np.maximum(area, 1e-300)[:, None], 0.0)
+        return np.where(area[:, None] > 0.0, intensity / np.maximum(area, 1e-300)[:, None], 0.0)
 
     def tree(self, box: tuple) -> tuple[np.ndarray, tuple]:
         """(order, nodes): the lights in the order of their Morton codes in ``box`` (the scene's), and the binary
