@@ -28,9 +28,12 @@ Indirect``) or, given a ``microfacet.GlossyLobe``, by the metallic lobe with its
 Glossy surfaces along the path: the photon lights hold diffusely reflected light only (no light sits on pure
 metal, and none stores a directional emission profile), so a hit y with a metallic lobe always extends the camera
 path through that lobe (next-event estimation with the lobe, and a sample pair one level deeper); the photons that
-lit the walls via metal were traced through it (``paths.light_paths``). With no diffuse surface in the scene at all
-there are no lights, and nothing indirect is rendered. Every extended vertex goes on by Russian roulette on its
-throughput (``paths.vertices.roulette``), which stops most paths through a faint clear coat early.
+lit the walls via metal were traced through it (``paths.light_paths``). The light a camera point receives over one
+sharp lobe straight from a light (a caustic) comes from the photons that took that way instead (``_caustic_light``,
+as a photon map's caustics: Jensen 1996), where paths would have to line up the point, the lobe and a small light
+by chance. With no diffuse surface in the scene at all there are no lights, and nothing indirect is rendered. Every
+extended vertex goes on by Russian roulette on its throughput (``paths.vertices.roulette``), which stops most paths
+through a faint clear coat early.
 """
 from __future__ import annotations
 
@@ -67,8 +70,8 @@ class SamplingSettings:
                                          "footprint (eq. 6-9)")
     n_min: float = 40.0
     n_max: float = 80.0
-    # the light that comes to a camera point over glossy lobes alone from the photons' density (``_caustic_light``)
-    # instead of from paths; off, paths alone find it, as a path tracer's: bench/README, issue 70
+    # the light that comes to a camera point over one sharp glossy lobe from the photons' density
+    # (``_caustic_light``); off, from paths alone, as a path tracer finds it (for comparisons)
     caustic_photons: bool = True
 
 
@@ -219,10 +222,10 @@ def _covering(lights, y):
 def _extended(y, rows, owner, branch, carried, mean_share, light_set, tracer, numbers, rng, out, caustic=None):
     """Camera path extension (eq. 6-9) at the BSDF samples' hits ``rows`` of ``y`` (``owner``, ``branch``,
     ``carried``, ``mean_share`` and ``caustic``, whether a sharp glossy hit's direct light is the photons', given
-    per hit): what the lights leave of the diffuse part, (1 - mean w_v), comes from the path continued at y, its direct
-    light added to ``out`` now (next-event estimation); a metallic lobe at y is not in the lights at all and always
-    continues. Either goes on by Russian roulette on its throughput (``paths.vertices.roulette``). Returns the
-    vertices of the next level."""
+    per hit): what the lights leave of the diffuse part, (1 - mean w_v), comes from the path continued at y, its
+    direct light added to ``out`` now (next-event estimation); a metallic lobe at y is not in the lights at all and
+    always continues. Either goes on by Russian roulette on its throughput (``paths.vertices.roulette``). Returns
+    the vertices of the next level."""
     carry = carried[rows] * (1.0 - mean_share[rows])[:, None] * y.albedo[rows]
     go, boost = roulette(carry, rng, numbers(1, owner[rows], branch[rows], 1)[0])
     following = [PathVertices(y.take(rows[go]), owner[rows[go]], carry[go] * boost[:, None], None,
