@@ -74,9 +74,11 @@ def _shown_plots(folder: pathlib.Path) -> list[str]:
     return lines
 
 
-def light_passes(folder: pathlib.Path, title: str) -> list[str]:
-    table = (folder / "pass_table.md").read_text().strip().splitlines()
-    return [f"## {title}", "", *_command(folder), *table, ""]
+def table(file: str):
+    """A section that is the folder's markdown table ``file`` under its command."""
+    def section(folder: pathlib.Path, title: str) -> list[str]:
+        return [f"## {title}", "", *_command(folder), *(folder / file).read_text().strip().splitlines(), ""]
+    return section
 
 
 def lightmaps(folder: pathlib.Path, title: str) -> list[str]:
@@ -168,7 +170,8 @@ SECTIONS = (  # (folder, title, how its figures become a section)
     ("corridor", "The corridor to 30 s", picture_against_cycles),
     ("converted_scenes", "The denoised picture on the converted public scenes", picture_against_cycles),
     ("living_room", "The living room", picture_against_cycles),
-    ("pass_table", "Every light pass against Cycles", light_passes),
+    ("pass_table", "Every light pass against Cycles", table("pass_table.md")),
+    ("caustics", "The helmet's caustics on its ground", table("caustics.md")),
     ("glossy", "Glossy Indirect on rough metal", glossy),
     ("lightmap", "Lightmaps against Cycles' bake", lightmaps),
     ("scaling", "Scaling with triangles, pixels and VPLs", scaling),
