@@ -97,8 +97,9 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
         return out[:k], out[k:]
     density = lights.density
     order, nodes = lights.tree(scene.bounds)
-    seen = None
-    if settings.caustic_photons and glossy is None and lights.caustic is not None and max_depth > 1:
+    seen = None  # the points whose caustics the photons hold: none without a sharp lobe's photon
+    if settings.caustic_photons and glossy is None and max_depth > 1 and lights.caustic is not None and \
+            lights.caustic.any():
         seen = _caustic_light(out, surface, lights)
     level = [PathVertices(surface, np.arange(len(surface)), np.ones((len(surface), 3)), glossy)]
     paths = None if pixel is None else PathNumbers(pixel, rng)
