@@ -380,35 +380,27 @@ def split_photons(lights, batches, bounces: int, tracer) -> tuple[np.ndarray, np
             if held and (photons is None or sum(map(len, held)) >= splitting.points):
                 photons = VirtualLights.concat(held)
                 held = []
-                points, normals, values, groups = _split_rows(photons, bounces)
-                splitting.add(points, normals, values, groups, lid_heights(tracer, points, normals, reach),
-                              *_raw_rows(photons))
+                points, normals, values, groups, raw, raw_groups = _split_rows(photons, bounces)
+                splitting.add(points, normals, values, groups, lid_heights(tracer, points, normals, reach), raw,
+                              raw_groups)
             tracer.checkpoint()
     return splitting.total(), splitting.raw_total()
 
 
-def _caustics(photons) -> np.ndarray:
-    """The photons that hold a caustic's light (``VirtualLights.caustic``)."""
-    return np.nonzero(photons.caustic.any(axis=1))[0]
-
-
 def _split_rows(photons, bounces: int):
-    """(points, normals, values, groups) that photon splitting shares: every photon by its bounce, and the caustic
-    ones once more, their white-receiver intensity in the group after the last bounce."""
-    c = _caustics(photons)
+    """(points, normals, values, groups, raw values, raw groups) that photon splitting shares: every photon by its
+    bounce, and those that hold a caustic's light (``VirtualLights.caustic``) once more, their white-receiver
+    intensity in the group after the last bounce; the raw values each photon's luminance and its first moment, in
+    the group of the parity of its light path (``fit_slopes``), zero for the caustic copies, which the slopes do
+    not weigh."""
+    c = np.nonzero(photons.caustic.any(axis=1))[0]
+    light = luminance(photons.intensity)[:, None]
     return (np.concatenate([photons.position, photons.position[c]]),
             np.concatenate([photons.normal, photons.normal[c]]),
             np.concatenate([photons.intensity, photons.caustic[c]]),
-            np.concatenate([photons.bounce - 1, np.full(len(c), bounces)]))
-
-
-def _raw_rows(photons):
-    """(raw values, raw groups) beside ``_split_rows``: each photon's luminance and its first moment, in the group of
-    the parity of its light path (``fit_slopes``); zero for the caustic copies, which the slopes do not weigh."""
-    light = luminance(photons.intensity)[:, None]
-    c = len(_caustics(photons))
-    raw = np.concatenate([np.concatenate([light, light * photons.position], axis=1), np.zeros((c, 4))])
-    return raw, np.concatenate([photons.path % 2, np.zeros(c, np.int64)])
+            np.concatenate([photons.bounce - 1, np.full(len(c), bounces)]),
+            np.concatenate([np.concatenate([light, light * photons.position], axis=1), np.zeros((len(c), 4))]),
+            np.concatenate([photons.path % 2, np.zeros(len(c), np.int64)]))
 
 
 def gather_samples(settings, camera_samples: int) -> int:

@@ -138,9 +138,9 @@ def _caustic_light(out, surface, lights) -> np.ndarray:
     receivers): sum_j s_j(x) L_j of the lights' ``caustic_radiance``, a density estimate of the light that came
     over one sharp glossy lobe (Jensen 1996, sec. 3.1; ``paths.light_paths.SHARP``), smooth where paths would have
     to find a small bright light through that lobe: a sun in a sky seen in a helmet's metal throws rare samples of
-    10^5 times the mean onto the ground, which a pass of 16 samples misses (its mean 0.78 of Cycles') or shows as
-    fireflies. Returns (K,) the points the lights cover, whose paths leave that light to the photons: no direct
-    light at a sharp glossy hit of their first step (``_extended``)."""
+    10^5 times the mean onto the ground, which a pass of 16 samples mostly misses or shows as fireflies
+    (``bench/caustics.py``). Returns (K,) the points the lights cover, whose paths leave that light to the photons:
+    no direct light at a sharp glossy hit of their first step (``_extended``)."""
     pair, light, share = lights.shares(surface.position, surface.shading_normal)
     out[:len(surface)] += group_sum(pair, share[:, None] * lights.caustic_radiance[light], len(surface))
     return np.bincount(pair, weights=share, minlength=len(surface)) > 0.0
