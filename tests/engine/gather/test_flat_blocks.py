@@ -9,6 +9,7 @@ import pytest
 
 from vpl_addon.core.camera import Camera, view_window
 from vpl_addon.core.scene import Materials, Scene
+from vpl_addon.evaluation.flat_blocks import flat_blocks
 from vpl_addon.lights.sun import SunLight
 from vpl_addon.methods import METHODS
 from vpl_addon.paths.light_paths import SHARP
@@ -36,24 +37,6 @@ def _plate_over_a_floor(roughness: float = 0.3, far: float = 20.0) -> Scene:
     cam = Camera(look, SIZE, SIZE, view_window(SIZE, SIZE, orthographic=True, ortho_scale=3.0), orthographic=True)
     sun = SunLight("sun", [1.0, 0.0, -0.3], [3.0] * 3)
     return Scene.build(tri, materials, [sun], cam, material=[1, 1, 2, 2])
-
-
-def flat_blocks(image: np.ndarray, size: int) -> list[tuple[int, int]]:
-    """The size x size windows of ``image`` (H,W,C) whose largest inner pixel-to-pixel step is below a quarter of
-    the typical (median) step across their border while that border step is a fifth of their level or more: a
-    flat square. A smooth gradient or single bright pixels do not qualify; the filter's squares on the helmet
-    under its HDR had border steps 27 to 1,680 times their inner ones."""
-    y = image[..., :3].mean(axis=-1).astype(np.float64)
-    dx, dy = np.abs(np.diff(y, axis=1)), np.abs(np.diff(y, axis=0))
-    found = []
-    for i in range(1, y.shape[0] - size):
-        for j in range(1, y.shape[1] - size):
-            inner = max(dx[i:i + size, j:j + size - 1].max(), dy[i:i + size - 1, j:j + size].max())
-            border = np.median(np.concatenate([dx[i:i + size, j - 1], dx[i:i + size, j + size - 1],
-                                               dy[i - 1, j:j + size], dy[i + size - 1, j:j + size]]))
-            if border > 0.2 * y[i:i + size, j:j + size].mean() > 0.0 and inner < 0.25 * border:
-                found.append((i, j))
-    return found
 
 
 @pytest.mark.parametrize("method", list(METHODS))
