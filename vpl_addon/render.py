@@ -605,8 +605,10 @@ def _filter(job: _Job, timing: dict[str, float]) -> np.ndarray | None:
     t0 = time.perf_counter()
     reflected = P.divide(frame.shine, frame.shine_color)  # Glossy Indirect
     if plan.filtering:  # the further light's bright excess stays as sampled
-        spread, kept = bright_apart(frame.indirect.reshape(plan.h, plan.w, 3), settings.gather.interleave)
-        frame.indirect = kept.reshape(-1, 3) + _smooth(job, frame.near + spread.reshape(-1, 3))
+        tile, shape = settings.gather.interleave, (plan.h, plan.w, 3)
+        spread, kept = bright_apart(frame.indirect.reshape(shape), tile)
+        near, alone = bright_apart(frame.near.reshape(shape), tile, interleaved=True)
+        frame.indirect = (kept + alone).reshape(-1, 3) + _smooth(job, (near + spread).reshape(-1, 3))
         _guard(settings, "filter", {P.DIFFUSE_INDIRECT: frame.indirect})
     lit = frame.images[P.DIFFUSE_COLOR] * frame.indirect + frame.glossy_color * reflected  # the light in Combined
     frame.images[P.COMBINED][:, :3] += lit

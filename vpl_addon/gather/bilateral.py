@@ -17,7 +17,7 @@ import os
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
-from scipy.ndimage import uniform_filter
+from scipy.ndimage import rank_filter, uniform_filter
 
 from ..core.color import largest
 from ..core.compiled import kernel
@@ -25,7 +25,7 @@ from ..core.compiled import kernel
 PLANE_SIGMA = 2.0  # tangent-plane distance, in pixel footprints, at which a neighbour's weight falls to 1/e
 NORMAL_POWER = 16  # weight ~ (n . n')^power
 UNDERFLOW = 746.0  # exp(-x) is 0 in float64 beyond this
-BRIGHT = 4.0  # a pixel brighter than this many times its window's mean keeps the excess (``bright_apart``)
+BRIGHT = 4.0  # a pixel brighter than this many times the light around it keeps the excess (``bright_apart``)
 
 
 def deinterleave(image: np.ndarray, position: np.ndarray, normal: np.ndarray, valid: np.ndarray,
@@ -52,18 +52,39 @@ def deinterleave(image: np.ndarray, position: np.ndarray, normal: np.ndarray, va
     return out
 
 
-def bright_apart(image: np.ndarray, tile: int) -> tuple[np.ndarray, np.ndarray]:
+def bright_apart(image: np.ndarray, tile: int, interleaved: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(H,W,3) ``image`` in two parts that sum to it: what the filter may spread, and the excess of each pixel
-    brighter (by its largest channel) than ``BRIGHT`` times the mean of its 2t x 2t filter window, kept where it
-    is. A rare bright sample (a caustic's, over metal) then stays one bright pixel, as in a path tracer's picture,
-    instead of becoming a square of its light the size of the window; a smooth image is all spread."""
+    brighter (by its largest channel) than ``BRIGHT`` times the light around it, kept where it is. A rare bright
+    sample (a caustic's, over metal) then stays one bright pixel, as in a path tracer's picture, instead of
+    becoming a square of its light the size of the 2t x 2t window; on black it is kept whole, so that not even a
+    faint square is left. The light around a pixel is its window's background (``_background``), or for
+    ``interleaved`` light the mean of the eight nearest pixels of its own VPL subset (t apart), which its tile
+    pattern makes alike, so that the pattern is all spread. A smooth image is all spread."""
     level = largest(image.reshape(-1, 3)).reshape(image.shape[:2])
-    mean = uniform_filter(level, size=2 * max(int(tile), 1), mode="nearest")
-    bright = level > BRIGHT * mean
+    around = _subset_mean(level, tile) if interleaved else _background(level, tile)
+    bright = level > BRIGHT * around
     scale = np.ones_like(level)
-    scale[bright] = BRIGHT * mean[bright] / level[bright]
+    scale[bright] = BRIGHT * around[bright] / level[bright]
     spread = image * scale[..., None]
     return spread, image - spread
+
+
+def _background(level: np.ndarray, tile: int) -> np.ndarray:
+    """The light that a few rare bright samples lie on: the mean of (H,W) ``level`` over each pixel's 2t x 2t
+    window, every pixel clipped to the fourth brightest of its own window. Three samples in a window then do not
+    raise each other's share of the spread light, which would leave the faint squares of their overlap."""
+    side = 2 * max(int(tile), 1)
+    fourth = rank_filter(level, rank=-4, size=side, mode="nearest")
+    return uniform_filter(np.minimum(level, fourth), size=side, mode="nearest")
+
+
+def _subset_mean(level: np.ndarray, tile: int) -> np.ndarray:
+    """The mean of (H,W) ``level`` over the eight pixels t apart around each pixel (edges repeated)."""
+    t = max(int(tile), 1)
+    h, w = level.shape
+    padded = np.pad(level, t, mode="edge")
+    total = sum(padded[t + dy:t + dy + h, t + dx:t + dx + w] for dy in (-t, 0, t) for dx in (-t, 0, t))
+    return np.maximum(total - level, 0.0) / 8.0
 
 
 @kernel
