@@ -25,7 +25,7 @@ HEADER_KEY = "vplReference"
 KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR, P.EMIT)
 # Kept too, but not part of the hash: a reference without them stays valid for the passes above (the committed
 # references of the diffuse example scenes have none).
-GLOSSY_PASSES = P.GLOSSY
+FURTHER_PASSES = P.GLOSSY + (P.ENVIRONMENT,)
 SEED = 0
 TWIN_SEED = 17  # a second reference's seed: noise independent of the first's
 
@@ -104,7 +104,7 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
     info = {"hash": digest, "samples": samples, "frame": frame, "percentage": percentage,
             "seconds": round(seconds, 2), "seed": seed,
             "blend": os.path.basename(blend_path), "blender": bpy.app.version_string}
-    kept = {name: images[name] for name in (KEPT_PASSES + GLOSSY_PASSES if seed == SEED else (P.COMBINED,))
+    kept = {name: images[name] for name in (KEPT_PASSES + FURTHER_PASSES if seed == SEED else (P.COMBINED,))
             if name in images}
     write_passes(out_path, kept, {HEADER_KEY: json.dumps(info, sort_keys=True)}, half=True)
     if cached:
