@@ -78,6 +78,22 @@ def lookup(tmap: TextureMap, textures: list[np.ndarray], uv: np.ndarray, scalar:
     return (value >= tmap.cutoff).astype(np.float64) if tmap.cutoff >= 0.0 else value
 
 
+def lowest(tmap: TextureMap, textures: list[np.ndarray]) -> float:
+    """A lower bound of what ``tmap`` gives a scalar input anywhere (a bilinear lookup stays within its texels):
+    its channel's least texel, or the luminance of each channel's least; 0 where a colour attribute multiplies in,
+    whose colours it does not read, or where a cutoff makes it a mask."""
+    if tmap.vertex or tmap.image < 0 or tmap.cutoff >= 0.0 or min(tmap.factor) < 0.0:
+        return 0.0
+    image = textures[tmap.image]
+    least = image.reshape(-1, image.shape[-1]).min(axis=0).astype(np.float64)  # per channel, no copy of the image
+    if tmap.srgb:
+        least[:3] = srgb_to_linear(least[:3])
+    factor = np.asarray(tmap.factor, np.float64)
+    if tmap.channel >= 0:
+        return float((least[tmap.channel] if tmap.channel < len(least) else 1.0) * factor[0])
+    return float(luminance(least[:3] * factor))
+
+
 def at_points(tmap: TextureMap, scene, prim: np.ndarray, bary: np.ndarray, scalar: bool) -> np.ndarray:
     """``lookup`` at points given as triangles ``prim`` (K,) and barycentric coordinates (K,3) of ``scene``: their
     UVs and (for a ``vertex`` map) colour attribute interpolated from the triangles' corners."""

@@ -36,22 +36,26 @@ SHARP = 0.2
 
 def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max_bounces: int,
                 light_prob: np.ndarray | None = None, first_path: int = 0, start=None, record=None,
-                start_hits=None) -> VirtualLights:
+                start_hits=None, caustics: np.ndarray | None = None) -> VirtualLights:
     """VPLs of ``count`` light paths with at most ``max_bounces`` surface interactions (not yet divided by the
     number of paths). Path verification (``path_verification``) continues paths from a given segment with
     ``start = (origins, dirs, power, path ids, bounce)`` instead of emitting, and keeps every traced segment through
     ``record(bounce, origins, dirs, power, path ids, light)`` (``light``: the index of each emitted path's light in
     ``lights``, None past the emission). ``start_hits``: the given segments' hits when the caller traced them
-    already (path verification's threshold test), so they are not traced twice."""
+    already (path verification's threshold test), so they are not traced twice. ``caustics``: (L,) bool, the
+    lights whose paths leave caustic photons (``paths.caustic_photons`` aims the others'); None: all."""
     if len(lights) == 0 or max_bounces <= 0 or (count <= 0 if start is None else len(start[0]) == 0):
         return VirtualLights.empty()
     rng = LatinHypercube(rng)
     glossy = scene.materials.glossy
-    origins, dirs, power, path, first_bounce, light = _first_segments(lights, count, rng, light_prob, first_path,
-                                                                      start, record is not None)
+    origins, dirs, power, path, first_bounce, light = _first_segments(
+        lights, count, rng, light_prob, first_path, start, record is not None or caustics is not None)
     # per path: FRESH (no bounce yet), OVER_GLOSSY (one bounce, off a sharp glossy lobe) or DIFFUSED (any other);
-    # a path continued from a given segment counts as diffused, its past unknown
+    # a path continued from a given segment counts as diffused, its past unknown, as does one whose caustics are
+    # not its own
     past = np.full(len(origins), FRESH if start is None else DIFFUSED, np.int8)
+    if caustics is not None and start is None:
+        past[~caustics[light]] = DIFFUSED
     found = []
     for bounce in range(first_bounce, max_bounces + 1):
         if len(origins) == 0:
