@@ -1,11 +1,12 @@
 """Every light pass against Cycles (issue 70): for each example scene with a committed reference
-(``tests/references``), each method at the render defaults with denoise off, and each light pass both hold, the
-mean ratio on the pixels where Cycles defines the pass, the per-pixel rMAE and the rMAE of 8 x 8-block means
+(``tests/references``) and each converted scene (``make scenes``; Cycles renders it at ``CONVERTED`` % with every
+light pass, cached by hash), each method at the render defaults with denoise off, and each light pass both hold,
+the mean ratio on the pixels where Cycles defines the pass, the per-pixel rMAE and the rMAE of 8 x 8-block means
 (which the reference's own fireflies disturb less). Passes a reference lacks are listed as such, so the table says
 which comparisons it cannot make.
 
-    .venv/bin/python bench/pass_table.py [--scenes cornell_area,cornell_metal] [--methods ir,vbnl] [--seeds 2]
-        [--csv out/bench/pass_table.csv]
+    .venv/bin/python bench/pass_table.py [--scenes cornell_area,living_room] [--methods ir,vbnl] [--seeds 2]
+        [--reference-samples 4096] [--csv out/bench/pass_table.csv]
 """
 from __future__ import annotations
 
@@ -20,7 +21,7 @@ import numpy as np
 ROOT = pathlib.Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "bench"))
-from vbnl_stages import load_scene  # noqa: E402
+from vbnl_stages import load_scene, register_extension  # noqa: E402
 from vpl_addon.core import passes as P  # noqa: E402
 from vpl_addon.core.exr import read_passes  # noqa: E402
 from vpl_addon.evaluation.metrics import block_means, coverage_mask, errors, pass_mask  # noqa: E402
@@ -33,6 +34,24 @@ REFERENCES = {"cornell_area": ("cornell_area.exr", None), "cornell_point": ("cor
               "cornell_sun": ("cornell_sun.exr", None), "cornell_textured": ("cornell_textured.exr", None),
               "corridor": ("corridor.exr", None), "cornell_metal": ("cornell_metal.exr", None),
               "cornell_pbr": ("cornell_pbr_50pct.exr", 50)}
+CONVERTED = 50  # the converted scenes' resolution percentage
+CACHE = pathlib.Path.home() / ".cache" / "vpl_gi"
+
+
+def reference_of(name: str, samples: int) -> tuple[dict, pathlib.Path, int | None]:
+    """(reference passes, .blend, resolution percentage) of scene ``name``: an example's committed reference, or a
+    converted scene's Cycles render at ``samples`` (``reference.make_reference``, cached by hash)."""
+    if name in REFERENCES:
+        file, percentage = REFERENCES[name]
+        return read_passes(str(ROOT / "tests" / "references" / file))[0], ROOT / "example_blends" / f"{name}.blend", \
+            percentage
+    blend = ROOT / "scenes" / f"{name}.blend"
+    register_extension()
+    from vpl_gi.operators.output.reference import make_reference
+    out = CACHE / f"{name}-{CONVERTED}pct-passes.exr"
+    CACHE.mkdir(parents=True, exist_ok=True)
+    make_reference(str(blend), str(out), samples, None, str(CACHE), CONVERTED)
+    return read_passes(str(out))[0], blend, CONVERTED
 
 
 def pass_rows(scene_name: str, method: str, ours: list[dict], ref: dict) -> list[dict]:
@@ -57,7 +76,9 @@ def pass_rows(scene_name: str, method: str, ours: list[dict], ref: dict) -> list
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--scenes", default=",".join(REFERENCES))
+    converted = sorted(p.stem for p in (ROOT / "scenes").glob("*.blend"))
+    ap.add_argument("--scenes", default=",".join([*REFERENCES, *converted]))
+    ap.add_argument("--reference-samples", type=int, default=4096, help="Cycles' samples of a converted scene")
     ap.add_argument("--methods", default="ir,vbnl")
     ap.add_argument("--seeds", type=int, default=2)
     ap.add_argument("--csv", default=str(ROOT / "out" / "bench" / "pass_table.csv"))
@@ -65,10 +86,9 @@ def main(argv=None) -> int:
     rows = []
     print("| scene | method | pass | mean ratio | rMAE | rMAE 8x8 |\n| --- | --- | --- | --- | --- | --- |")
     for scene_name in args.scenes.split(","):
-        file, percentage = REFERENCES[scene_name]
-        ref, _ = read_passes(str(ROOT / "tests" / "references" / file))
-        scene = load_scene(ROOT / "example_blends" / f"{scene_name}.blend", percentage)
-        assert (scene.camera.height, scene.camera.width) == ref[P.COMBINED].shape[:2], f"{file}: another size"
+        ref, blend, percentage = reference_of(scene_name, args.reference_samples)
+        scene = load_scene(blend, percentage)
+        assert (scene.camera.height, scene.camera.width) == ref[P.COMBINED].shape[:2], f"{scene_name}: another size"
         for method in args.methods.split(","):
             ours = [render(scene, RenderSettings(method=method, seed=seed, passes=P.ALL)).passes
                     for seed in range(args.seeds)]

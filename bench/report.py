@@ -171,6 +171,7 @@ SECTIONS = (  # (folder, title, how its figures become a section)
     ("converted_scenes", "The denoised picture on the converted public scenes", picture_against_cycles),
     ("living_room", "The living room", picture_against_cycles),
     ("pass_table", "Every light pass against Cycles", table("pass_table.md")),
+    ("flat_blocks", "Flat squares in the light passes", table("flat_blocks.md")),
     ("caustics", "The helmet's caustics on its ground", table("caustics.md")),
     ("glossy", "Glossy Indirect on rough metal", glossy),
     ("lightmap", "Lightmaps against Cycles' bake", lightmaps),

@@ -93,3 +93,24 @@ def test_helmet_under_the_hdri_matches_cycles(converted, tmp_path):
             assert abs(direct["mean_ratio"] - 1) < 0.02, direct
             assert direct["rmae"] < 1.5 * theirs["rmae"], (direct, theirs)
     assert abs(sum(combined) / len(combined) - 1) < 0.02, combined
+
+
+def test_no_light_pass_of_the_helmet_holds_a_flat_square(converted, ext):
+    """Issue 70: the helmet under its HDR at its own 256 px, every method at the defaults with denoise off: no flat
+    2t x 2t window (``evaluation.flat_blocks``) in any light pass. The filter once spread the sun's rare glints on
+    the ground, and their faint tails on its dark far side, into such squares."""
+    import bpy
+    from vpl_gi.operators.scene.extract import extract
+    from vpl_gi.vpl_addon.evaluation.flat_blocks import flat_blocks
+    from vpl_gi.vpl_addon.methods import METHODS
+    from vpl_gi.vpl_addon.render import RenderSettings, render
+    bpy.ops.wm.open_mainfile(filepath=str(converted / "helmet_hdri.blend"))
+    scene, _ = extract(bpy.context.evaluated_depsgraph_get())
+    light = ("Diffuse Direct", "Diffuse Indirect", "Glossy Direct", "Glossy Indirect", "Emit", "Environment")
+    found = {}
+    for method in METHODS:
+        settings = RenderSettings(method=method, denoise=False, passes=light)
+        passes = render(scene, settings).passes
+        found[method] = {name: len(flat_blocks(passes[name], 2 * settings.gather.interleave)) for name in light}
+        assert passes["Diffuse Indirect"][..., :3].mean() > 0.0
+    assert not any(n for counts in found.values() for n in counts.values()), found

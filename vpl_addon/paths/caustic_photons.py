@@ -6,8 +6,8 @@ of them meet a small metal object: the helmet under its HDR takes a small share 
 ground are a few caustic photons each. The same light emitted through the disc of a sphere around just the
 surfaces that may be sharper than ``SHARP`` carries, per path, the power of that smaller disc, and nearly every
 path meets them. So the caustics of the distant lights come from paths of their own (``trace_caustic_photons``),
-as many as the light paths, and the light paths leave the caustics of local lights alone
-(``distant_caustics``). Each path is the line a scene-wide disc would have emitted, started outside the scene, so
+a share of the light paths' number, where they bring several times the light paths' caustic photons, and the
+light paths leave them the distant lights' caustics (``distant_caustics``). Each path is the line a scene-wide disc would have emitted, started outside the scene, so
 what stands between the light and the sharp surface still shades it.
 """
 from __future__ import annotations
@@ -22,6 +22,9 @@ from ..materials.textures import lowest
 from .light_paths import SHARP, trace_paths
 
 CAUSTIC_BOUNCES = 2  # light -> the sharp lobe -> the receiver: the caustic photon's bounce
+# aimed paths are traced only where they bring at least this many times the caustic photons of the light paths:
+# the helmet's sharp surfaces are 1/80 of its scene's disc, the living room's (a glossy floor and table) 1/2.2
+DENSER = 4.0
 
 
 @dataclass
@@ -42,12 +45,14 @@ class AimedLights:
         return (origins, dirs, power, light[0]) if with_light else (origins, dirs, power)
 
 
-def aimed_lights(scene, lights: LightSet) -> AimedLights | None:
+def aimed_lights(scene, lights: LightSet, share: float = 1.0) -> AimedLights | None:
     """The distant lights of ``lights`` aimed at ``scene``'s surfaces that may be sharper than ``SHARP``
-    (``sharp_bounds``); None without either."""
+    (``sharp_bounds``), for ``share`` aimed paths per light path; None without either, or where those paths would
+    not bring ``DENSER`` times the light paths' caustic photons (the scene's disc over the sharp surfaces', times
+    ``share``)."""
     distant = [light for light, far in zip(lights.lights, distant_lights(lights)) if far]
     bounds = sharp_bounds(scene)
-    if not distant or bounds is None:
+    if not distant or bounds is None or share * (lights.radius / bounds[1]) ** 2 < DENSER:
         return None
     center, radius = bounds
     back = float(np.linalg.norm(center - lights.center)) + lights.radius + radius

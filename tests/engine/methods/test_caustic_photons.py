@@ -51,6 +51,7 @@ def test_aimed_paths_carry_the_distant_lights_caustic_in_a_hundred_times_the_pho
     theirs, ours = own.caustic.sum(axis=0) / (4 * PATHS), aimed.caustic.sum(axis=0) / PATHS
     np.testing.assert_allclose(ours, theirs, rtol=0.1)
     assert len(aimed) > 20 * own.caustic.any(axis=1).sum() / 4  # measured: 103 times
+    assert aimed_lights(scene, lights, share=1.0 / 16) is not None and aimed_lights(scene, lights, 1.0 / 64) is None
 
 
 def test_light_paths_leave_aimed_lights_caustics_to_the_aimed_paths():

@@ -66,9 +66,6 @@ LIFT = 0.05  # a light's reach is found by rays this many radii above its plane 
 REFINE = 16  # catchment points, as a multiple, for a light that few of its first points found (``catchment``)
 AHEAD = 8  # batches of photons traced before their lights exist (about 80 MB at PATHS_PER_BATCH)
 AUTO_PATHS = (1 << 18, 1 << 20)  # the automatic light paths' range (``VBNLSettings.light_paths``)
-# aimed caustic light paths per light path (``paths.caustic_photons``): on the helmet under its HDR, 2 seeds, a
-# quarter takes the 8 x 8-block rMAE of Diffuse Indirect to 0.29 (all: 0.27; none: 0.45-0.57, Cycles at 64 spp 0.49)
-AIMED_SHARE = 0.25
 ELIMINATION = (("adaptive", "Adaptive", "Blue noise that keeps the density the camera asks for (eq. 2)"),
                ("uniform", "Uniform", "Blue noise with one radius everywhere (eq. 1)"),
                ("none", "None", "A random subset of the candidates"))
@@ -86,15 +83,19 @@ class VBNLSettings:
                                       "is smoother; 0 = automatic, a quarter of the render's camera samples (pixels "
                                       "x Samples / 4), from 262144 to 1048576")
     area_samples: int = 32  # surface points per light that measure its catchment
+    # aimed caustic light paths per light path (``paths.caustic_photons``), 0: none. On the helmet under its HDR,
+    # 2 seeds, a quarter takes the 8 x 8-block rMAE of Diffuse Indirect to 0.29 (as many: 0.27; none: 0.45-0.57;
+    # Cycles at 64 spp: 0.49)
+    aimed_caustics: float = 0.25
     sampling: virtual_light_sampling.SamplingSettings = field(
         default_factory=virtual_light_sampling.SamplingSettings)
 
     def __post_init__(self):
         if self.elimination not in MODES:
             raise ValueError(f"unknown sample elimination {self.elimination!r}; choose one of {', '.join(MODES)}")
-        if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 0:
-            raise ValueError("vbnl needs candidates >= 1, photons >= 0 (0: automatic) and gather samples >= 0 (0: one "
-                             "per camera sample)")
+        if self.candidates < 1 or self.photons < 0 or self.sampling.samples < 0 or not self.aimed_caustics >= 0.0:
+            raise ValueError("vbnl needs candidates >= 1, photons >= 0 (0: automatic), gather samples >= 0 (0: one "
+                             "per camera sample) and aimed caustics >= 0")
 
     def light_paths(self, camera_samples: int) -> int:
         """The light paths a render with ``camera_samples`` in all (pixels x samples per pixel) traces: ``photons``,
@@ -289,9 +290,9 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
     lanes = threading.Semaphore(1)  # one tracing thread while this one finds and thins the candidates
     try:
         if state is None:
-            aimed = aimed_lights(context.scene, context.lights) \
-                if s.sampling.caustic_photons and context.max_bounces > 1 else None
-            batches = photon_batches(context, s.photons, seed, tracing, lanes, aimed)
+            aimed = aimed_lights(context.scene, context.lights, s.aimed_caustics) \
+                if s.sampling.caustic_photons and s.aimed_caustics > 0.0 and context.max_bounces > 1 else None
+            batches = photon_batches(context, s.photons, seed, tracing, lanes, aimed, s.aimed_caustics)
         else:
             traced = follow(state.paths, own, motion, 0, settings.path_reuse, settings.path_threshold,
                             paths=s.photons)
@@ -341,19 +342,19 @@ def place(context, settings, state: PlacedFromPaths | None = None, motion=None):
 
 
 def photon_batches(context, paths: int, seed: tuple, executor, lanes: threading.Semaphore | None = None,
-                   aimed: AimedLights | None = None):
+                   aimed: AimedLights | None = None, share: float = 0.0):
     """The photons (light-path vertices) of ``paths`` light paths in batches of ``PATHS_PER_BATCH`` paths, in
     order, traced on the threads of ``executor`` at most ``AHEAD`` batches ahead of the caller; with ``lanes``, on
     only as many threads at once as it lets through. Each batch draws from a generator of its own, seeded by
     ``seed`` and its first path: the photons do not depend on which thread traced them, or on how many there are.
-    With ``aimed`` lights (``caustic_photons.aimed_lights``), the caustic photons of ``AIMED_SHARE`` as many paths
+    With ``aimed`` lights (``caustic_photons.aimed_lights``), the caustic photons of ``share`` times as many paths
     of theirs follow, in place of the distant lights' own, weighted so that they too are divided by ``paths``."""
     caustics = distant_caustics(context.lights, aimed)
     starts = range(0, paths, PATHS_PER_BATCH)
     jobs = [partial(_photons, context, seed, first, min(PATHS_PER_BATCH, paths - first), lanes, caustics)
             for first in starts]
     if aimed is not None:
-        count = max(1, int(paths * AIMED_SHARE))
+        count = max(1, int(paths * share))
         jobs += [partial(_caustic_photons, context, aimed, seed, first, min(PATHS_PER_BATCH, count - first), lanes,
                          paths / count) for first in range(0, count, PATHS_PER_BATCH)]
     return _ahead(jobs, executor, AHEAD)
