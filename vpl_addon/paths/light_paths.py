@@ -43,7 +43,7 @@ def trace_paths(scene, tracer, lights, count: int, rng: np.random.Generator, max
     ``record(bounce, origins, dirs, power, path ids, light)`` (``light``: the index of each emitted path's light in
     ``lights``, None past the emission). ``start_hits``: the given segments' hits when the caller traced them
     already (path verification's threshold test), so they are not traced twice. ``caustics``: (L,) bool, the
-    lights whose paths leave caustic photons (``paths.caustic_photons`` aims the others'); None: all."""
+    lights whose paths leave caustic photons (``methods.vbnl.caustic_photons`` aims the others'); None: all."""
     if len(lights) == 0 or max_bounces <= 0 or (count <= 0 if start is None else len(start[0]) == 0):
         return VirtualLights.empty()
     rng = LatinHypercube(rng)

@@ -1,4 +1,4 @@
-"""Caustic photons aimed at the sharp glossy surfaces (``paths.caustic_photons``), without Blender: a small metal
+"""Caustic photons aimed at the sharp glossy surfaces (``methods.vbnl.caustic_photons``), without Blender: a small metal
 plate under a low sun over a wide floor, which few of the sun's scene-wide light paths meet."""
 import numpy as np
 import pytest
@@ -9,7 +9,7 @@ from vpl_addon.core.tracer import Tracer
 from vpl_addon.lights.light_set import LightSet
 from vpl_addon.lights.sun import SunLight
 from vpl_addon.materials.textures import lookup, lowest
-from vpl_addon.paths.caustic_photons import aimed_lights, distant_caustics, sharp_bounds, trace_caustic_photons
+from vpl_addon.methods.vbnl.caustic_photons import aimed_lights, distant_caustics, sharp_bounds, trace_caustic_photons
 from vpl_addon.paths.light_paths import SHARP, trace_paths
 
 PATHS = 1 << 16

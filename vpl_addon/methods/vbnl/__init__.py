@@ -16,7 +16,7 @@ noise, lit by photon splitting, and sampled with MIS and camera path extension w
    scene's bounce limit holds for the whole path); with the catchments' shapes, their moments give each light a
    slope across its disc (``photon_lights.fit_slopes``). The caustic photons of sharp glossy lobes are shared
    once more, apart (``paths.light_paths``); those of the distant lights come from paths aimed at the sharp
-   surfaces (``paths.caustic_photons``).
+   surfaces (``methods.vbnl.caustic_photons``).
 ``gather`` is ``virtual_light_sampling.gather`` (sec. 4), run ``gather_samples`` times per pixel.
 
 In a sequence the photons' light paths are kept from frame to frame and verified against moving objects and lights
@@ -47,12 +47,12 @@ from ...core.sampling import concentric_disk, cosine_hemisphere, dot, orthonorma
 from ...gather.virtual_lights import VirtualLights
 from ...materials.microfacet import GlossyLobe
 from ...materials.surface import Surface, bounce, diffuse_bounce, shade
-from ...paths.caustic_photons import AimedLights, aimed_lights, distant_caustics, trace_caustic_photons
 from ...paths.gbuffer import GBuffer
 from ...paths.light_paths import trace_paths
 from ...sequence.path_verification import PlacedFromPaths, follow
 from ..base import Method, option
 from . import virtual_light_sampling
+from .caustic_photons import AimedLights, aimed_lights, distant_caustics, trace_caustic_photons
 from .photon_lights import ALPHA, LID, SECTORS, SLAB, PhotonLights, Splitting, fit_slopes, lid_heights, sector_angle, \
     sector_of
 from .sample_elimination import MODES, eliminate
@@ -83,7 +83,7 @@ class VBNLSettings:
                                       "is smoother; 0 = automatic, a quarter of the render's camera samples (pixels "
                                       "x Samples / 4), from 262144 to 1048576")
     area_samples: int = 32  # surface points per light that measure its catchment
-    # aimed caustic light paths per light path (``paths.caustic_photons``), 0: none. On the helmet under its HDR,
+    # aimed caustic light paths per light path (``methods.vbnl.caustic_photons``), 0: none. On the helmet under its HDR,
     # 2 seeds, a quarter takes the 8 x 8-block rMAE of Diffuse Indirect to 0.29 (as many: 0.27; none: 0.45-0.57;
     # Cycles at 64 spp: 0.49)
     aimed_caustics: float = 0.25

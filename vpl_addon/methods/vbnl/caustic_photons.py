@@ -16,10 +16,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..gather.virtual_lights import VirtualLights
-from ..lights.light_set import LightSet
-from ..materials.textures import lowest
-from .light_paths import SHARP, trace_paths
+from ...gather.virtual_lights import VirtualLights
+from ...lights.light_set import LightSet
+from ...materials.textures import lowest
+from ...paths.light_paths import SHARP, trace_paths
 
 CAUSTIC_BOUNCES = 2  # light -> the sharp lobe -> the receiver: the caustic photon's bounce
 # aimed paths are traced only where they bring at least this many times the caustic photons of the light paths:
