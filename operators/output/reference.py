@@ -26,6 +26,7 @@ KEPT_PASSES = (P.COMBINED, P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.DIFFUSE_COLOR
 # Kept too, but not part of the hash: a reference without them stays valid for the passes above (the committed
 # references of the diffuse example scenes have none).
 FURTHER_PASSES = P.GLOSSY + (P.ENVIRONMENT,)
+RENAMED = {"Emission": P.EMIT}  # Blender 5's name of Cycles' Emit pass in its files
 SEED = 0
 TWIN_SEED = 17  # a second reference's seed: noise independent of the first's
 
@@ -100,7 +101,7 @@ def make_reference(blend_path: str, out_path: str, samples: int, frame: int | No
         raw = os.path.join(tmp, "cycles.exr")
         render_to(scene, raw)
         seconds = time.perf_counter() - t0
-        images, _ = read_passes(raw)
+        images = {RENAMED.get(name, name): image for name, image in read_passes(raw)[0].items()}
     info = {"hash": digest, "samples": samples, "frame": frame, "percentage": percentage,
             "seconds": round(seconds, 2), "seed": seed,
             "blend": os.path.basename(blend_path), "blender": bpy.app.version_string}

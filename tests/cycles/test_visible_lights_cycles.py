@@ -7,7 +7,7 @@ picture 0.0383 against Cycles + OIDN's 0.0310 at 64 samples, 0.0297 with the lam
 import numpy as np
 import pytest
 
-from conftest import add_mesh, camera_and_black_world
+from conftest import add_mesh, camera_and_black_world, run_cli
 
 pytestmark = pytest.mark.blender
 
@@ -111,3 +111,17 @@ def test_point_spot_and_sun_lights_the_camera_sees_are_drawn_as_cycles_draws_the
     assert lit[0].sum() == pytest.approx(lit[1].sum(), rel=0.05) and (lit[0] & lit[1]).sum() > 0.9 * lit[1].sum()
     if kind == "spots":  # the spot facing away is not drawn: the lit pixels lie right of the middle
         assert not lit[0][:, :24].any()
+
+
+def test_a_reference_keeps_cycles_emission_as_the_emit_pass(ext, tmp_path):
+    """Blender 5 writes Cycles' Emit pass to files as "Emission": a reference keeps it under the name our passes
+    and the bench's tables read (before, it left it out)."""
+    import bpy
+    from vpl_gi.vpl_addon.core.exr import read_passes
+    lamp_under_a_ceiling(bpy, visible=True)
+    blend, out = tmp_path / "lamp.blend", tmp_path / "reference.exr"
+    bpy.ops.wm.save_as_mainfile(filepath=str(blend))
+    code, _, stderr = run_cli("reference", blend, "-o", out, "--samples", "4", "--cache-dir", tmp_path / "cache")
+    assert code == 0, stderr
+    reference = read_passes(str(out))[0]
+    assert "Emission" not in reference and reference["Emit"][..., :3].max() > 1.0
