@@ -1,9 +1,10 @@
 """Every light pass against Cycles (issue 70): for each example scene with a committed reference
 (``tests/references``) and each converted scene (``make scenes``; Cycles renders it at ``CONVERTED`` % with every
 light pass, cached by hash), each method at the render defaults with denoise off, and each light pass both hold,
-the mean ratio on the pixels where Cycles defines the pass, the per-pixel rMAE and the rMAE of 8 x 8-block means
-(which the reference's own fireflies disturb less). Passes a reference lacks are listed as such, so the table says
-which comparisons it cannot make.
+the mean ratio on the pixels where Cycles defines the pass, the per-pixel rMAE, the rMAE of 8 x 8-block means
+(which the reference's own fireflies disturb less) and the mean ratio of the light the pass gives Combined (the
+pass times its colour, ``_light_ratio``). Passes a reference lacks are listed as such, so the table says which
+comparisons it cannot make.
 
     .venv/bin/python bench/pass_table.py [--scenes cornell_area,living_room] [--methods ir,vbnl] [--seeds 2]
         [--reference-samples 4096] [--csv out/bench/pass_table.csv]
@@ -24,7 +25,7 @@ sys.path.insert(0, str(ROOT / "bench"))
 from vbnl_stages import load_scene, register_extension  # noqa: E402
 from vpl_addon.core import passes as P  # noqa: E402
 from vpl_addon.core.exr import read_passes  # noqa: E402
-from vpl_addon.evaluation.metrics import block_means, coverage_mask, errors, pass_mask  # noqa: E402
+from vpl_addon.evaluation.metrics import DIVIDED_BY, block_means, coverage_mask, errors, pass_mask  # noqa: E402
 from vpl_addon.render import RenderSettings, render  # noqa: E402
 
 LIGHT_PASSES = (P.DIFFUSE_DIRECT, P.DIFFUSE_INDIRECT, P.GLOSSY_DIRECT, P.GLOSSY_INDIRECT, P.EMIT, P.ENVIRONMENT)
@@ -66,7 +67,8 @@ def pass_rows(scene_name: str, method: str, ours: list[dict], ref: dict) -> list
         if name not in ref:
             rows.append({**row, "note": "not in the reference"})
             continue
-        mask = pass_mask(name, ref, full)
+        # the world where the camera sees it: at the pixels the film leaves open, which full coverage leaves out
+        mask = np.ones_like(full) if name == P.ENVIRONMENT else pass_mask(name, ref, full)
         if not mask.any():
             rows.append({**row, "note": "Cycles defines it at no pixel (no surface of its kind)"})
             continue
@@ -79,8 +81,20 @@ def pass_rows(scene_name: str, method: str, ours: list[dict], ref: dict) -> list
         blocks = [errors(block_means(image[name][..., :3], BLOCK), block_means(ref[name][..., :3], BLOCK), whole)
                   ["rmae"] for image in ours] if whole.any() else [np.nan]  # nan: no whole block
         rows.append({**row, "mean_ratio": np.mean([f["mean_ratio"] for f in found]),
-                     "rmae": np.mean([f["rmae"] for f in found]), "rmae_8x8": np.mean(blocks), "note": ""})
+                     "rmae": np.mean([f["rmae"] for f in found]), "rmae_8x8": np.mean(blocks),
+                     "light_ratio": np.mean([_light_ratio(name, image, ref, full) for image in ours]), "note": ""})
     return rows
+
+
+def _light_ratio(name: str, image: dict, ref: dict, full: np.ndarray) -> float:
+    """The mean of the light the pass gives Combined (times its colour, ``metrics.DIVIDED_BY``) over Cycles':
+    unlike the pass's own mean, it does not count the pixels where few camera samples found the pass's kind of
+    surface, whose pass is then 0 (Cycles' convention for 0 / 0) while the reference's is not."""
+    color = DIVIDED_BY.get(name)
+    if color is None:
+        return float("nan")
+    ours, theirs = (i[name][..., :3] * i[color][..., :3] for i in (image, ref))
+    return float(ours[full].mean() / max(theirs[full].mean(), 1e-30))
 
 
 def _figure(value: float) -> str:
@@ -97,7 +111,8 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", default=str(ROOT / "out" / "bench" / "pass_table.csv"))
     args = ap.parse_args(argv)
     rows = []
-    print("| scene | method | pass | mean ratio | rMAE | rMAE 8x8 |\n| --- | --- | --- | --- | --- | --- |")
+    print("| scene | method | pass | mean ratio | rMAE | rMAE 8x8 | light x colour ratio |\n"
+          "| --- | --- | --- | --- | --- | --- | --- |")
     for scene_name in args.scenes.split(","):
         ref, blend, percentage = reference_of(scene_name, args.reference_samples)
         scene = load_scene(blend, percentage)
@@ -107,12 +122,12 @@ def main(argv=None) -> int:
                     for seed in range(args.seeds)]
             for row in pass_rows(scene_name, method, ours, ref):
                 rows.append(row)
-                figures = " | ".join(_figure(row[k]) for k in ("mean_ratio", "rmae", "rmae_8x8")) \
-                    if not row["note"] else f"{row['note']} | |"
+                figures = " | ".join(_figure(row[k]) for k in ("mean_ratio", "rmae", "rmae_8x8", "light_ratio")) \
+                    if not row["note"] else f"{row['note']} | | |"
                 print(f"| {scene_name} | {method} | {row['pass']} | {figures} |", flush=True)
     os.makedirs(os.path.dirname(args.csv), exist_ok=True)
     with open(args.csv, "w", newline="") as f:
-        writer = csv.DictWriter(f, ["scene", "method", "pass", "mean_ratio", "rmae", "rmae_8x8", "note"])
+        writer = csv.DictWriter(f, ["scene", "method", "pass", "mean_ratio", "rmae", "rmae_8x8", "light_ratio", "note"])
         writer.writeheader()
         writer.writerows(rows)
     return 0
