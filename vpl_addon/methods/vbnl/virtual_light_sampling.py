@@ -101,7 +101,8 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
     if settings.caustic_photons and glossy is None and max_depth > 1 and lights.caustic is not None and \
             lights.caustic.any():
         seen = _caustic_light(out, surface, lights)
-    level = [PathVertices(surface, np.arange(len(surface)), np.ones((len(surface), 3)), glossy)]
+    scale = _lobe_scale(glossy, k)
+    level = [PathVertices(surface, np.arange(len(surface)), np.repeat(1.0 / scale[:, None], 3, axis=1), glossy)]
     paths = None if pixel is None else PathNumbers(pixel, rng)
     for depth in range(max_depth):
         numbers = partial(_numbers, paths, rng, depth)
@@ -121,7 +122,21 @@ def gather(surface, lights, scene, tracer, light_set, rng: np.random.Generator, 
             following += _estimate(v, out, lights, scene, tracer, light_set, numbers, draws, settings, radiance,
                                    choice, tree, density, total_power, extend, seen if depth == 0 else None)
         level = merged(following)
+    out *= np.concatenate([scale, scale])[:, None]
     return out[:k], out[k:]
+
+
+def _lobe_scale(glossy: GlossyLobe | None, k: int) -> np.ndarray:
+    """(K,) what the paths' throughput starts divided by and the light ends multiplied by: the largest channel of
+    the metallic lobe's colour (1 for the white Lambertian, or where the lobe has no colour). Russian roulette
+    (``paths.vertices.roulette``) then weighs a path by what it carries against its first lobe, as Cycles' does
+    after choosing a closure by its weight. Against the throughput itself, a ground's 4 % specular layer stopped
+    most paths through it and multiplied the rest by about 5: the sun over the helmet's sharp metal made one
+    pixel of 1,041 in Combined, now 203."""
+    if glossy is None:
+        return np.ones(k)
+    color = largest(glossy.color)
+    return np.where(color > 0.0, color, 1.0)
 
 
 def _numbers(paths: PathNumbers | None, rng, depth: int, count: int, owner: np.ndarray, branch: np.ndarray,
