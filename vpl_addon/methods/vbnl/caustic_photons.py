@@ -7,8 +7,9 @@ ground are a few caustic photons each. The same light emitted through the disc o
 surfaces that may be sharper than ``SHARP`` carries, per path, the power of that smaller disc, and nearly every
 path meets them. So the caustics of the distant lights come from paths of their own (``trace_caustic_photons``),
 a share of the light paths' number, where they bring several times the light paths' caustic photons, and the
-light paths leave them the distant lights' caustics (``distant_caustics``). Each path is the line a scene-wide disc would have emitted, started outside the scene, so
-what stands between the light and the sharp surface still shades it.
+light paths leave them the distant lights' caustics (``distant_caustics``). Each path is the line a scene-wide
+disc would have emitted, started outside the scene, so what stands between the light and the sharp surface still
+shades it.
 """
 from __future__ import annotations
 
