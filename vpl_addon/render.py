@@ -604,7 +604,7 @@ def _filter(job: _Job, timing: dict[str, float]) -> np.ndarray | None:
     settings, plan, frame = job.settings, job.plan, job.frame
     t0 = time.perf_counter()
     reflected = P.divide(frame.shine, frame.shine_color)  # Glossy Indirect
-    if plan.filtering:  # the further light's bright excess stays as sampled
+    if plan.filtering:  # the rare bright samples of either part stay as sampled (``bright_apart``)
         tile, shape = settings.gather.interleave, (plan.h, plan.w, 3)
         spread, kept = bright_apart(frame.indirect.reshape(shape), tile)
         near, alone = bright_apart(frame.near.reshape(shape), tile, interleaved=True)
